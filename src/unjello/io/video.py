@@ -1,0 +1,283 @@
+"""Video files with PyAV: decode to planes in coded orientation, encode, copy audio.
+
+Frames are handed to the core as their planar YUV planes (``Y``, ``U``, ``V``) in the
+coded (sensor) orientation, never converted to RGB: no colour-matrix round trip, the
+bit depth is kept (8 or 10 bit), and the writer encodes the same planes. Other pixel
+formats are converted to ``yuv420p`` (or ``yuv420p10le`` above 8 bit). The writer keeps
+every frame's pts in the input's time base (variable frame rate survives), copies every
+audio stream packet by packet (no re-encode), and sets the display rotation and colour
+tags of the input.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+
+import av
+import numpy as np
+
+from ..errors import InputError, OutputError
+
+__all__ = ["VideoInfo", "VideoReader", "VideoWriter", "probe", "EncodeOptions"]
+
+_PLANAR = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p",
+           "yuv420p10le", "yuv422p10le", "yuv444p10le"}
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What a video file holds (see :func:`probe`)."""
+
+    path: str
+    width: int
+    height: int
+    fps: float
+    time_base: Fraction
+    frames: int
+    duration: float
+    pix_fmt: str
+    bit_depth: int
+    rotation: int
+    audio_streams: int
+    codec: str
+    color: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class EncodeOptions:
+    """Encoder settings of the output video (libx264, CRF 18 by default)."""
+
+    codec: str = "libx264"
+    crf: int = 18
+    preset: str = "medium"
+
+
+def _open(path: str | os.PathLike) -> av.container.InputContainer:
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: no such file or folder")
+    if p.is_dir():
+        raise InputError(f"{p}: is a folder, not a video")
+    try:
+        c = av.open(str(p), "r")
+    except (av.FFmpegError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{p}: not a video PyAV can read ({exc.__class__.__name__})") from None
+    if not c.streams.video:
+        c.close()
+        raise InputError(f"{p}: has no video stream")
+    return c
+
+
+def _work_format(pix_fmt: str | None) -> str:
+    if pix_fmt in _PLANAR:
+        return pix_fmt
+    if pix_fmt and ("10" in pix_fmt or "12" in pix_fmt or "16" in pix_fmt):
+        return "yuv420p10le"
+    return "yuv420p"
+
+
+def probe(path: str | os.PathLike) -> VideoInfo:
+    """Describe a video file.
+
+    Raises
+    ------
+    InputError
+        If it is missing, not a video, or has no video stream.
+    """
+    c = _open(path)
+    try:
+        vs = c.streams.video[0]
+        cc = vs.codec_context
+        rate = vs.average_rate or vs.guessed_rate or vs.base_rate or Fraction(30)
+        rotation = 0
+        frames = vs.frames
+        try:
+            for fr in c.decode(video=0):
+                rotation = int(fr.rotation or 0)
+                break
+        except av.FFmpegError:
+            pass
+        duration = float(c.duration / av.time_base) if c.duration else 0.0
+        fmt = _work_format(cc.pix_fmt)
+        return VideoInfo(
+            path=str(path), width=cc.width, height=cc.height, fps=float(rate),
+            time_base=vs.time_base or Fraction(1, 90000), frames=int(frames or 0),
+            duration=duration, pix_fmt=str(cc.pix_fmt), bit_depth=10 if "10" in fmt else 8,
+            rotation=rotation, audio_streams=len(c.streams.audio), codec=cc.name,
+            color={k: getattr(cc, k, None) for k in
+                   ("color_range", "colorspace", "color_primaries", "color_trc")},
+        )
+    finally:
+        c.close()
+
+
+def frame_planes(frame: av.VideoFrame) -> list[np.ndarray]:
+    """Copy the planes of a planar YUV frame into arrays (no padding)."""
+    dtype = np.uint16 if "10" in frame.format.name else np.uint8
+    out = []
+    for p in frame.planes:
+        a = np.frombuffer(memoryview(p), dtype=dtype)
+        a = a.reshape(p.height, p.line_size // a.itemsize)[:, :p.width]
+        out.append(a.copy())
+    return out
+
+
+def planes_frame(planes: list[np.ndarray], fmt: str) -> av.VideoFrame:
+    """Build a frame of pixel format ``fmt`` from plane arrays."""
+    h, w = planes[0].shape
+    frame = av.VideoFrame(w, h, fmt)
+    for p, a in zip(frame.planes, planes, strict=True):
+        stride = p.line_size // a.itemsize
+        buf = np.zeros((p.height, stride), dtype=a.dtype)
+        buf[:, :p.width] = a
+        p.update(buf.tobytes())
+    return frame
+
+
+class VideoReader:
+    """Iterate a video's frames as planes, and its audio packets for copying.
+
+    Parameters
+    ----------
+    path : path-like
+        Input video.
+
+    Examples
+    --------
+    Use as a context manager; iterate :meth:`packets` to get ``('video', planes, pts)``
+    and ``('audio', packet, None)`` items in file order.
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.info = probe(path)
+        self._c = _open(path)
+        self._vs = self._c.streams.video[0]
+        self._vs.thread_type = "AUTO"
+        self.work_format = _work_format(self._vs.codec_context.pix_fmt)
+        self.audio = list(self._c.streams.audio)
+
+    def __enter__(self) -> VideoReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the file."""
+        self._c.close()
+
+    def packets(self) -> Iterator[tuple[str, object, int | None]]:
+        """Yield decoded video frames (as planes) and raw audio packets in file order.
+
+        Raises
+        ------
+        InputError
+            If the stream is corrupt beyond what the decoder can skip.
+        """
+        try:
+            for packet in self._c.demux(self._vs, *self.audio):
+                if packet.stream.type == "audio":
+                    if packet.dts is not None:
+                        yield "audio", packet, None
+                    continue
+                for frame in packet.decode():
+                    yield "video", self._planes(frame), frame.pts
+        except av.FFmpegError as exc:
+            raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
+
+    def frames(self) -> Iterator[tuple[list[np.ndarray], int | None]]:
+        """Yield ``(planes, pts)`` of every video frame."""
+        for kind, item, pts in self.packets():
+            if kind == "video":
+                yield item, pts  # type: ignore[misc]
+
+    def _planes(self, frame: av.VideoFrame) -> list[np.ndarray]:
+        if frame.format.name != self.work_format:
+            frame = frame.reformat(format=self.work_format)
+        return frame_planes(frame)
+
+
+class VideoWriter:
+    """Encode planes to a video file, with audio streams copied from a reader.
+
+    Parameters
+    ----------
+    path : path-like
+        Output file (written as is; atomicity is the caller's temp-and-rename).
+    reader : VideoReader
+        Source of the time base, rate, rotation, colour tags and audio streams.
+    options : EncodeOptions
+        Codec, CRF and preset.
+    size : tuple of int, optional
+        ``(width, height)`` of the frames to encode; default the reader's.
+    """
+
+    def __init__(self, path: str | os.PathLike, reader: VideoReader,
+                 options: EncodeOptions = EncodeOptions(),
+                 size: tuple[int, int] | None = None) -> None:
+        info = reader.info
+        self._fmt = reader.work_format
+        try:
+            self._c = av.open(str(path), "w")
+        except (av.FFmpegError, ValueError) as exc:
+            raise OutputError(f"{path}: cannot create output ({exc})") from None
+        try:
+            vs = self._c.add_stream(options.codec, rate=Fraction(info.fps).limit_denominator(
+                100000))
+        except (av.FFmpegError, ValueError) as exc:
+            raise OutputError(f"unknown or unavailable codec {options.codec!r} ({exc})") from None
+        w, h = size or (info.width, info.height)
+        vs.width, vs.height = w, h
+        vs.pix_fmt = self._fmt
+        vs.time_base = info.time_base
+        vs.codec_context.time_base = info.time_base
+        vs.thread_type = "AUTO"
+        opts = {"preset": options.preset}
+        if options.codec in ("libx264", "libx265"):
+            opts["crf"] = str(options.crf)
+        vs.options = opts
+        for k, v in info.color.items():
+            if v is not None:
+                try:
+                    setattr(vs.codec_context, k, v)
+                except (AttributeError, ValueError, TypeError):
+                    pass
+        if info.rotation:
+            vs.set_display_rotation(info.rotation)
+        self._vs = vs
+        self._audio = {a.index: self._c.add_stream_from_template(a) for a in reader.audio}
+        self._time_base = info.time_base
+        self.frames_written = 0
+
+    def write(self, planes: list[np.ndarray], pts: int | None) -> None:
+        """Encode one frame at ``pts`` (input time base)."""
+        frame = planes_frame(planes, self._fmt)
+        frame.pts = pts
+        frame.time_base = self._time_base
+        for packet in self._vs.encode(frame):
+            self._c.mux(packet)
+        self.frames_written += 1
+
+    def copy_audio(self, packet: av.Packet) -> None:
+        """Mux an audio packet from the reader unchanged."""
+        out = self._audio.get(packet.stream.index)
+        if out is not None:
+            packet.stream = out
+            self._c.mux(packet)
+
+    def close(self) -> None:
+        """Flush the encoder and close the file."""
+        for packet in self._vs.encode():
+            self._c.mux(packet)
+        self._c.close()
+
+    def abort(self) -> None:
+        """Close without flushing (the caller deletes the file)."""
+        try:
+            self._c.close()
+        except av.FFmpegError:
+            pass

@@ -1,0 +1,72 @@
+"""Quality metrics against ground truth: PSNR, SSIM and per-scanline displacement error.
+
+PSNR and SSIM come from :mod:`skimage.metrics` on the 0-255 (or 0-1023) scale of the
+images, over the valid region (an optional margin is cropped from every side). SSIM is
+scikit-image's default (7x7 uniform window) on colour images with ``channel_axis``;
+papers on Fastec/Carla differ in these details (see the README), so compare numbers
+measured with the same function only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from skimage.metrics import peak_signal_noise_ratio, structural_similarity
+
+from .trajectory import FrameMotion
+
+__all__ = ["psnr", "ssim", "displacement_error", "crop_margin"]
+
+
+def crop_margin(image: np.ndarray, margin: int | tuple[int, int]) -> np.ndarray:
+    """Drop ``margin`` pixels (or ``(mx, my)``) from every side."""
+    mx, my = (margin, margin) if isinstance(margin, int) else margin
+    h, w = image.shape[:2]
+    return image[my:h - my or None, mx:w - mx or None]
+
+
+def _rgb(img: np.ndarray) -> np.ndarray:
+    return img[..., :3] if img.ndim == 3 and img.shape[2] == 4 else img
+
+
+def _range(a: np.ndarray) -> float:
+    return float(np.iinfo(a.dtype).max) if np.issubdtype(a.dtype, np.integer) else 1.0
+
+
+def psnr(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0) -> float:
+    """Peak signal-to-noise ratio in dB (alpha channels are ignored).
+
+    Examples
+    --------
+    >>> a = np.full((8, 8), 100, np.uint8)
+    >>> round(psnr(a, a + 1), 2)
+    48.13
+    """
+    a, b = crop_margin(_rgb(image), margin), crop_margin(_rgb(truth), margin)
+    return float(peak_signal_noise_ratio(b, a, data_range=_range(truth)))
+
+
+def ssim(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0) -> float:
+    """Structural similarity (scikit-image defaults; colour over ``channel_axis=-1``)."""
+    a, b = crop_margin(_rgb(image), margin), crop_margin(_rgb(truth), margin)
+    return float(structural_similarity(
+        b, a, data_range=_range(truth), channel_axis=-1 if a.ndim == 3 else None))
+
+
+def displacement_error(estimate: FrameMotion | None, truth: FrameMotion) -> float:
+    """Mean over scanlines of the Euclidean error of the displacement (px).
+
+    Parameters
+    ----------
+    estimate : FrameMotion or None
+        Estimated motion; None means no correction (zero displacement).
+    truth : FrameMotion
+        True motion of the same frame.
+
+    Returns
+    -------
+    float
+    """
+    est = np.zeros_like(truth.displacement) if estimate is None else estimate.displacement
+    if est.shape != truth.displacement.shape:
+        raise ValueError("estimate and truth have different numbers of scanlines")
+    return float(np.linalg.norm(est - truth.displacement, axis=1).mean())

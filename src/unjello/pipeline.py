@@ -1,0 +1,389 @@
+"""Streaming pipeline: reader -> motion method -> warper -> writer.
+
+Only :mod:`unjello.io` touches files; this module wires it to the pure-array core and
+keeps memory bounded: the motion method lags two frames behind the reader, so at most
+a handful of frames are held, however long the clip.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from collections import deque
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from .errors import InputError, OutputError, SettingsError
+from .io.frames import list_frames, read_image, write_image
+from .io.video import EncodeOptions, VideoReader, VideoWriter
+from .motion.paper import PaperConfig, PaperMethod
+from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
+from .trajectory import FrameMotion, Trajectory
+from .warp import Fill, WarpMode, resample_displacement, warp_image
+
+__all__ = ["CorrectionConfig", "Corrector", "correct_frames", "correct_video", "correct",
+           "Progress", "METHODS"]
+
+METHODS = ("paper",)
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class CorrectionConfig:
+    """How to correct: motion method, warp and hole filling.
+
+    Parameters
+    ----------
+    method : {'paper'}
+        Motion estimation method.
+    warp : {'remap', 'splat'}
+        Backward ``cv2.remap`` (fast) or the paper's forward splatting.
+    fill : {'nearest', 'black'}
+        Content of the area no scanline reaches.
+    paper : PaperConfig
+        Settings of the paper's stages.
+    """
+
+    method: Literal["paper"] = "paper"
+    warp: WarpMode = "remap"
+    fill: Fill = "nearest"
+    paper: PaperConfig = field(default_factory=PaperConfig)
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise SettingsError(f"method must be one of {', '.join(METHODS)}")
+        if self.warp not in ("remap", "splat"):
+            raise SettingsError("warp must be 'remap' or 'splat'")
+        if self.fill not in ("nearest", "black"):
+            raise SettingsError("fill must be 'nearest' or 'black'")
+
+
+def _luma255(image: np.ndarray, max_value: float) -> np.ndarray:
+    img = image
+    if img.ndim == 3:
+        img = cv2.cvtColor(img[..., :3].astype(np.float32), cv2.COLOR_RGB2GRAY)
+    return img.astype(np.float32) * np.float32(255.0 / max_value)
+
+
+def _max_value(dtype: np.dtype) -> float:
+    if np.issubdtype(dtype, np.integer):
+        return float(np.iinfo(dtype).max)
+    return 1.0
+
+
+class Corrector:
+    """Correct frames one at a time with bounded look-ahead.
+
+    A *picture* is a list of planes in coded orientation; the first is the luma (or a
+    colour image) and drives the motion estimate; every plane is warped by the same
+    displacement scaled to its size (4:2:0 chroma included).
+
+    Parameters
+    ----------
+    timing : SensorTiming
+        Readout, direction and reference.
+    config : CorrectionConfig
+        Method and warp.
+    max_value : float, optional
+        White level of the first plane (255 for 8 bit, 1023 for 10 bit); default from
+        the dtype.
+    """
+
+    def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
+                 max_value: float | None = None) -> None:
+        self.timing = timing
+        self.config = config
+        self.max_value = max_value
+        self._method = PaperMethod(timing, config.paper)
+        self._held: deque[list[np.ndarray]] = deque()
+
+    def push(self, planes: Sequence[np.ndarray], start: float
+             ) -> list[tuple[list[np.ndarray], FrameMotion]]:
+        """Add a picture whose first scanline starts at ``start`` (frame intervals).
+
+        Returns
+        -------
+        list of (planes, FrameMotion)
+            Pictures now corrected, in order.
+        """
+        planes = list(planes)
+        mv = self.max_value or _max_value(planes[0].dtype)
+        luma = _luma255(to_top_bottom(planes[0], self.timing.direction), mv)
+        self._held.append(planes)
+        return self._apply(self._method.push(luma, start))
+
+    def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
+        """Correct the pictures still held at the end of the clip."""
+        return self._apply(self._method.flush())
+
+    def _apply(self, motions: list[FrameMotion]) -> list[tuple[list[np.ndarray], FrameMotion]]:
+        out = []
+        for fm in motions:
+            planes = self._held.popleft()
+            out.append((self.warp(planes, fm.displacement), fm))
+        return out
+
+    def warp(self, planes: Sequence[np.ndarray], displacement: np.ndarray) -> list[np.ndarray]:
+        """Warp every plane of a picture by a per-scanline displacement (top-bottom frame)."""
+        d = self.timing.direction
+        ref = to_top_bottom(planes[0], d)
+        h, w = ref.shape[:2]
+        out = []
+        for plane in planes:
+            tb = to_top_bottom(plane, d)
+            ph, pw = tb.shape[:2]
+            disp = displacement if (ph, pw) == (h, w) else resample_displacement(
+                displacement, ph, pw / w, ph / h)
+            res, _ = warp_image(tb, disp, mode=self.config.warp, fill=self.config.fill)
+            out.append(from_top_bottom(res, d))
+        return out
+
+
+def correct_frames(
+    frames: Iterable[np.ndarray],
+    timing: SensorTiming | None = None,
+    *,
+    config: CorrectionConfig = CorrectionConfig(),
+    starts: Sequence[float] | None = None,
+) -> tuple[list[np.ndarray], Trajectory]:
+    """Correct a sequence of images held in memory.
+
+    Parameters
+    ----------
+    frames : iterable of ndarray of shape (H, W[, C])
+        Consecutive rolling-shutter frames in coded orientation.
+    timing : SensorTiming, optional
+        Readout, direction and reference (default: readout 1, top-bottom, middle).
+    config : CorrectionConfig
+        Method and warp.
+    starts : sequence of float, optional
+        Start time of each frame in frame intervals (variable frame rate); default
+        ``0, 1, 2, ...``.
+
+    Returns
+    -------
+    corrected : list of ndarray
+        The corrected frames, same shapes and dtypes.
+    trajectory : Trajectory
+        The estimated per-scanline motion.
+
+    Examples
+    --------
+    >>> from unjello.simulate import Motion, simulate
+    >>> from skimage import data
+    >>> sim = list(simulate(data.camera(), Motion("pan", speed=6), SensorTiming(1.0), 4,
+    ...                     size=(160, 120)))
+    >>> out, traj = correct_frames([s.rolling for s in sim])
+    >>> err = np.mean([np.abs(f.displacement - s.motion.displacement).mean()
+    ...                for f, s in zip(traj.frames, sim)])
+    >>> bool(err < 0.2)
+    True
+    """
+    timing = timing or SensorTiming()
+    corr = Corrector(timing, config)
+    out: list[np.ndarray] = []
+    traj: Trajectory | None = None
+    for i, img in enumerate(frames):
+        if traj is None:
+            traj = Trajectory(timing, (img.shape[1], img.shape[0]), method=config.method)
+        start = float(starts[i]) if starts is not None else float(i)
+        for planes, fm in corr.push([img], start):
+            out.append(planes[0])
+            traj.frames.append(fm)
+    if traj is None:
+        raise InputError("no frames to correct")
+    for planes, fm in corr.flush():
+        out.append(planes[0])
+        traj.frames.append(fm)
+    return out, traj
+
+
+def _temp_path(dst: Path) -> Path:
+    return dst.with_name(f".{dst.stem}.unjello-{uuid.uuid4().hex[:8]}{dst.suffix}")
+
+
+def _check_paths(src: Path, dst: Path, overwrite: bool) -> None:
+    if not src.exists():
+        raise InputError(f"{src}: no such file or folder")
+    if dst.exists() and (dst.resolve() == src.resolve() or os.path.samefile(src, dst)):
+        raise OutputError(f"output {dst} is the input; choose another name")
+    if dst.resolve() == src.resolve():
+        raise OutputError(f"output {dst} is the input; choose another name")
+    if dst.exists() and not overwrite:
+        raise OutputError(f"{dst} exists; pass -y to overwrite it")
+    parent = dst.parent if str(dst.parent) else Path(".")
+    if not parent.exists():
+        raise OutputError(f"{parent}: output folder does not exist")
+    if not os.access(parent, os.W_OK):
+        raise OutputError(f"{parent}: output folder is not writable")
+
+
+def correct_video(
+    src: str | os.PathLike,
+    dst: str | os.PathLike,
+    *,
+    readout: float | str = 1.0,
+    direction: str = "top-bottom",
+    reference: str = "middle",
+    config: CorrectionConfig = CorrectionConfig(),
+    encode: EncodeOptions = EncodeOptions(),
+    overwrite: bool = False,
+    motion_out: str | os.PathLike | None = None,
+    progress: Progress | None = None,
+) -> Trajectory:
+    """Correct a video file, or a folder of frames, into ``dst``.
+
+    Parameters
+    ----------
+    src : path-like
+        A video file PyAV can decode, or a folder of images (sorted by name).
+    dst : path-like
+        Output video file, or (for a folder input) output folder receiving the corrected
+        frames under the same names.
+    readout : float or str
+        Readout as a fraction of the frame interval, or ``"15.7ms"``.
+    direction, reference : str
+        See :class:`~unjello.timing.SensorTiming`.
+    config : CorrectionConfig
+        Method and warp.
+    encode : EncodeOptions
+        Codec, CRF and preset of the output video.
+    overwrite : bool
+        Replace an existing ``dst``.
+    motion_out : path-like, optional
+        Also write the estimated trajectory as JSON.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each frame (``total`` may be 0).
+
+    Returns
+    -------
+    Trajectory
+        The estimated motion.
+
+    Raises
+    ------
+    InputError, OutputError, SettingsError
+        On bad input, an existing output without ``overwrite``, or a bad option. Nothing
+        is written then; the output appears only when complete (temp file + rename).
+    """
+    src_p, dst_p = Path(src), Path(dst)
+    _check_paths(src_p, dst_p, overwrite)
+    if src_p.is_dir():
+        traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress)
+    else:
+        traj = _correct_file(src_p, dst_p, readout, direction, reference, config, encode,
+                             progress)
+    if motion_out is not None:
+        traj.save(motion_out)
+    return traj
+
+
+correct = correct_video
+
+
+def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
+                    config: CorrectionConfig, progress: Progress | None) -> Trajectory:
+    files = list_frames(src)
+    rho = parse_readout(readout) if isinstance(readout, str) and not readout.endswith(
+        "ms") else readout
+    if isinstance(rho, str):
+        raise SettingsError("a readout in milliseconds needs a video (a folder has no fps)")
+    timing = SensorTiming(float(rho), direction, reference)  # type: ignore[arg-type]
+    first = read_image(files[0])
+    if min(timing.lines(first.shape), first.shape[1 - ("left" in direction) * 0]) < 16:
+        raise InputError(f"{src}: frames of {first.shape[1]}x{first.shape[0]} are too small")
+
+    def images() -> Iterable[np.ndarray]:
+        for f in files:
+            img = read_image(f)
+            if img.shape != first.shape:
+                raise InputError(f"{f.name}: size {img.shape[1]}x{img.shape[0]} differs from "
+                                 f"the first frame's {first.shape[1]}x{first.shape[0]}")
+            yield img
+
+    tmp = _temp_path(dst)
+    tmp.mkdir()
+    try:
+        corr = Corrector(timing, config)
+        traj = Trajectory(timing, (first.shape[1], first.shape[0]), method=config.method)
+        names = iter(files)
+        done = 0
+
+        def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
+            nonlocal done
+            for planes, fm in items:
+                write_image(tmp / next(names).name, planes[0])
+                traj.frames.append(fm)
+                done += 1
+                if progress:
+                    progress(done, len(files))
+
+        for i, img in enumerate(images()):
+            emit(corr.push([img], float(i)))
+        emit(corr.flush())
+        if dst.exists():
+            import shutil
+
+            shutil.rmtree(dst) if dst.is_dir() else dst.unlink()
+        os.replace(tmp, dst)
+    finally:
+        if tmp.exists():
+            import shutil
+
+            shutil.rmtree(tmp, ignore_errors=True)
+    return traj
+
+
+def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
+                  config: CorrectionConfig, encode: EncodeOptions,
+                  progress: Progress | None) -> Trajectory:
+    with VideoReader(src) as reader:
+        info = reader.info
+        timing = SensorTiming(parse_readout(readout, info.fps), direction,  # type: ignore[arg-type]
+                              reference)  # type: ignore[arg-type]
+        if info.width < 16 or info.height < 16:
+            raise InputError(f"{src}: frames of {info.width}x{info.height} are too small")
+        max_value = 1023.0 if info.bit_depth == 10 else 255.0
+        corr = Corrector(timing, config, max_value=max_value)
+        traj = Trajectory(timing, (info.width, info.height), method=config.method)
+        tmp = _temp_path(dst)
+        writer = VideoWriter(tmp, reader, encode)
+        pts_queue: deque[int | None] = deque()
+        tb = float(info.time_base)
+        first_pts: int | None = None
+        n = 0
+        try:
+            def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
+                for planes, fm in items:
+                    writer.write(planes, pts_queue.popleft())
+                    traj.frames.append(fm)
+                    if progress:
+                        progress(writer.frames_written, info.frames)
+
+            for kind, item, pts in reader.packets():
+                if kind == "audio":
+                    writer.copy_audio(item)  # type: ignore[arg-type]
+                    continue
+                if first_pts is None and pts is not None:
+                    first_pts = pts
+                start = ((pts - first_pts) * tb * info.fps if pts is not None
+                         and first_pts is not None else float(n))
+                pts_queue.append(pts)
+                emit(corr.push(item, start))  # type: ignore[arg-type]
+                n += 1
+            if n == 0:
+                raise InputError(f"{src}: the video has no frames")
+            emit(corr.flush())
+            writer.close()
+        except BaseException:
+            writer.abort()
+            if tmp.exists():
+                tmp.unlink()
+            raise
+    os.replace(tmp, dst)
+    return traj

@@ -1,0 +1,264 @@
+"""Render rolling-shutter clips with known motion: the ground truth of every test.
+
+A static scene image ``I`` (or a global-shutter video, one scene per frame) is filmed
+by a camera whose image-plane displacement is ``D(t)`` (px, time in frame intervals):
+the global-shutter frame at time ``t`` is ``G_t(p) = I(p + o - D(t))`` for a crop
+origin ``o``, so a static scene point appears at ``w - o + D(t)``. A rolling-shutter
+frame takes each scanline ``r`` from the global-shutter frame of its own time (eq. 2):
+``S_n(x, r) = G_{t_r}(x, r)`` with ``t_r = t_n + rho r / h`` (:mod:`unjello.timing`);
+with an exposure ``e`` (in frame intervals) it averages ``G_t`` over
+``[t_r - e, t_r]``. The truth is ``G_{t_ref}`` of each frame, and the true
+per-scanline displacement is ``D(t_r) - D(t_ref)``: exactly what a method's
+:class:`~unjello.trajectory.FrameMotion` estimates.
+
+Rendering happens in the sensor's top-bottom orientation (:func:`unjello.timing.to_top_bottom`)
+and is turned back, so the scan direction is honoured and ``D`` is along the sensor's
+rows and columns. With a video source, the scene changes from frame to frame (the
+content of source frame ``n`` is used for every scanline of frame ``n``); only the
+camera's own motion is rolling-shutter distorted, and that is what the truth describes.
+
+Motions (all return ``D(t)`` in px, ``t`` in frame intervals, for a frame rate ``fps``):
+``pan`` (constant velocity), ``stop`` (pan, then a sudden stop half way, the paper's
+Fig. 7), ``diagonal`` (pan in x and y), ``shake`` (hand shake: sinusoids of 1.5-9 Hz),
+``jello`` (drone vibration: 23-40 Hz, a few px, on a slow pan), or a JSON file
+``{"time_unit": "frame" | "s", "t": [...], "dx": [...], "dy": [...]}`` interpolated
+by a cubic spline.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .errors import InputError, SettingsError
+from .timing import SensorTiming, from_top_bottom, to_top_bottom
+from .trajectory import FrameMotion
+
+__all__ = ["Motion", "MOTIONS", "SimulatedFrame", "simulate", "motion_from_spec"]
+
+MOTIONS = ("pan", "stop", "diagonal", "shake", "jello")
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Camera displacement ``D(t)`` in the image plane.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`MOTIONS` or ``'spline'``.
+    fps : float
+        Frame rate, to turn Hz into cycles per frame.
+    speed : float
+        Pan speed in px per frame (for pan, stop, diagonal, jello's drift).
+    amplitude : float
+        Scale of the shake/jello amplitudes (1 = the defaults below).
+    stop_at : float
+        Time (frames) of the sudden stop of ``'stop'``.
+    knots : tuple
+        ``(t, dx, dy)`` arrays of a ``'spline'`` motion, ``t`` in frames.
+    """
+
+    kind: str = "pan"
+    fps: float = 30.0
+    speed: float = 8.0
+    amplitude: float = 1.0
+    stop_at: float = 5.0
+    knots: tuple = ()
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Return ``D(t)`` as an array of shape ``t.shape + (2,)``."""
+        t = np.asarray(t, dtype=np.float64)
+        z = np.zeros_like(t)
+        if self.kind == "pan":
+            return np.stack([self.speed * t, z], axis=-1)
+        if self.kind == "diagonal":
+            return np.stack([self.speed * t, 0.6 * self.speed * t], axis=-1)
+        if self.kind == "stop":
+            tt = np.minimum(t, self.stop_at)
+            return np.stack([self.speed * tt, z], axis=-1)
+        if self.kind == "shake":
+            sec = t / self.fps
+            # (Hz, amplitude x px, amplitude y px, phase)
+            waves = ((1.5, 6.0, 4.0, 0.3), (2.7, 3.0, 4.0, 1.1), (4.3, 2.5, 1.5, 2.0),
+                     (6.1, 1.2, 1.4, 0.7), (8.9, 0.8, 0.6, 2.9))
+            x = sum(ax * np.sin(2 * np.pi * f * sec + ph) for f, ax, _, ph in waves)
+            y = sum(ay * np.cos(2 * np.pi * f * sec + ph) for f, _, ay, ph in waves)
+            return self.amplitude * np.stack([x, y], axis=-1)
+        if self.kind == "jello":
+            sec = t / self.fps
+            waves = ((23.0, 2.0, 1.0, 0.4), (31.0, 1.0, 2.0, 1.7), (39.0, 1.0, 0.5, 2.3))
+            x = sum(ax * np.sin(2 * np.pi * f * sec + ph) for f, ax, _, ph in waves)
+            y = sum(ay * np.sin(2 * np.pi * f * sec + ph + 0.5) for f, _, ay, ph in waves)
+            drift = 0.25 * self.speed * t
+            return np.stack([self.amplitude * x + drift, self.amplitude * y], axis=-1)
+        if self.kind == "spline":
+            kt, kx, ky = (np.asarray(a, dtype=np.float64) for a in self.knots)
+            if kt.size >= 4:
+                return np.stack([CubicSpline(kt, kx)(t), CubicSpline(kt, ky)(t)], axis=-1)
+            return np.stack([np.interp(t, kt, kx), np.interp(t, kt, ky)], axis=-1)
+        raise SettingsError(f"unknown motion {self.kind!r}; use one of {', '.join(MOTIONS)}")
+
+
+def motion_from_spec(spec: str, fps: float = 30.0, speed: float = 8.0, amplitude: float = 1.0,
+                     stop_at: float | None = None, n_frames: int = 10) -> Motion:
+    """Build a :class:`Motion` from a name or a JSON file path.
+
+    Parameters
+    ----------
+    spec : str
+        A name in :data:`MOTIONS`, or a path to a JSON trajectory.
+    fps, speed, amplitude : float
+        See :class:`Motion`.
+    stop_at : float, optional
+        Stop time for ``'stop'`` (default: half the clip).
+    n_frames : int
+        Clip length, for the default stop time.
+
+    Returns
+    -------
+    Motion
+    """
+    if spec in MOTIONS:
+        return Motion(spec, fps, speed, amplitude,
+                      stop_at if stop_at is not None else n_frames / 2.0)
+    path = Path(spec)
+    if not path.suffix.lower() == ".json":
+        raise SettingsError(f"motion must be one of {', '.join(MOTIONS)} or a .json file")
+    try:
+        doc = json.loads(path.read_text())
+        t = np.asarray(doc["t"], dtype=np.float64)
+        dx = np.asarray(doc["dx"], dtype=np.float64)
+        dy = np.asarray(doc.get("dy", np.zeros_like(dx)), dtype=np.float64)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"cannot read motion file {spec}: {exc}") from None
+    if not (t.shape == dx.shape == dy.shape) or t.size < 2 or np.any(np.diff(t) <= 0):
+        raise InputError(f"motion file {spec}: t, dx, dy must be equal-length, t increasing")
+    if doc.get("time_unit", "frame") in ("s", "seconds"):
+        t = t * fps
+    return Motion("spline", fps, knots=(tuple(t), tuple(dx), tuple(dy)))
+
+
+@dataclass(frozen=True)
+class SimulatedFrame:
+    """One rendered frame: rolling-shutter image, global-shutter truth, true motion."""
+
+    rolling: np.ndarray
+    truth: np.ndarray
+    motion: FrameMotion
+
+
+def _render(scene: np.ndarray, origin: np.ndarray, disp: np.ndarray, width: int) -> np.ndarray:
+    """Sample ``scene`` at ``(x, r) + origin - disp[r]`` for every row ``r``."""
+    h = disp.shape[0]
+    map_x = (np.arange(width, dtype=np.float32)[None, :]
+             + (origin[0] - disp[:, 0])[:, None].astype(np.float32))
+    map_y = np.broadcast_to((np.arange(h) + origin[1] - disp[:, 1])[:, None].astype(np.float32),
+                            (h, width))
+    return cv2.remap(scene, map_x, np.ascontiguousarray(map_y), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REFLECT_101)
+
+
+def simulate(
+    scene: np.ndarray | Callable[[int], np.ndarray],
+    motion: Motion,
+    timing: SensorTiming,
+    n_frames: int,
+    *,
+    size: tuple[int, int] | None = None,
+    exposure: float = 0.0,
+    frame_starts: np.ndarray | None = None,
+) -> Iterator[SimulatedFrame]:
+    """Render a rolling-shutter clip and its global-shutter truth.
+
+    Parameters
+    ----------
+    scene : ndarray of shape (H, W[, C]) or callable
+        A still image panned over, or ``scene(n)`` returning the scene of frame ``n``
+        (a global-shutter video), in coded orientation.
+    motion : Motion
+        Camera displacement ``D(t)`` in the sensor's top-bottom frame.
+    timing : SensorTiming
+        Readout, scan direction, reference.
+    n_frames : int
+        Number of frames.
+    size : tuple of int, optional
+        Output ``(width, height)`` in coded orientation; default: as large as the scene
+        allows for a still image (it is enlarged when the motion needs more room), the
+        scene's own size for a video.
+    exposure : float
+        Exposure time in frame intervals (motion blur), 0 for none.
+    frame_starts : ndarray of shape (n_frames,), optional
+        Start time of each frame (variable frame rate); default ``0, 1, 2, ...``.
+
+    Yields
+    ------
+    SimulatedFrame
+    """
+    if n_frames < 1:
+        raise SettingsError("n_frames must be at least 1")
+    starts = np.arange(n_frames, dtype=np.float64) if frame_starts is None else np.asarray(
+        frame_starts, dtype=np.float64)
+    first = scene(0) if callable(scene) else scene
+    probe = to_top_bottom(first, timing.direction)
+    sh, sw = probe.shape[:2]
+    if size is None:
+        ow, oh = (sw, sh) if callable(scene) else (int(sw * 0.75), int(sh * 0.75))
+    else:
+        ow, oh = (size if timing.direction in ("top-bottom", "bottom-top")
+                  else (size[1], size[0]))
+    # Range of the displacement over the clip, to place the crop inside the scene.
+    t_all = np.concatenate([timing.row_times(oh, s) for s in starts]
+                           + [starts - exposure]) if n_frames else np.zeros(1)
+    d_all = motion(t_all)
+    dmin, dmax = d_all.min(axis=0), d_all.max(axis=0)
+    need = np.array([ow, oh]) + (dmax - dmin) + 4
+    scale = 1.0
+    if not callable(scene):
+        scale = float(max(1.0, need[0] / sw, need[1] / sh))
+    origin = dmax + 2 + (np.array([sw, sh]) * scale - need) / 2.0
+
+    def scene_tb(n: int) -> np.ndarray:
+        img = to_top_bottom(scene(n) if callable(scene) else first, timing.direction)
+        img = img.astype(np.float32)
+        if scale > 1.0:
+            img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_CUBIC)
+        return img
+
+    still = None if callable(scene) else scene_tb(0)
+    dtype = first.dtype
+    n_sub = max(1, int(np.ceil(exposure * oh / 4))) if exposure > 0 else 1
+    for n in range(n_frames):
+        img = still if still is not None else scene_tb(n)
+        t_rows = timing.row_times(oh, starts[n])
+        if exposure > 0:
+            acc = np.zeros(img.shape[:0] + (oh, ow) + img.shape[2:], np.float32)
+            for j in range(n_sub):
+                acc += _render(img, origin, motion(t_rows - exposure * (j + 0.5) / n_sub), ow)
+            rs = acc / n_sub
+        else:
+            rs = _render(img, origin, motion(t_rows), ow)
+        t_ref = timing.reference_time(oh, starts[n])
+        d_ref = motion(np.array([t_ref]))[0]
+        gs = _render(img, origin, np.tile(d_ref, (oh, 1)), ow)
+        eps = 1e-3
+        vel = (motion(t_rows + eps) - motion(t_rows - eps)) / (2 * eps)
+        fm = FrameMotion(n, float(starts[n]), motion(t_rows) - d_ref, vel)
+        yield SimulatedFrame(
+            rolling=_to_dtype(from_top_bottom(rs, timing.direction), dtype),
+            truth=_to_dtype(from_top_bottom(gs, timing.direction), dtype),
+            motion=fm,
+        )
+
+
+def _to_dtype(img: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    if np.issubdtype(dtype, np.integer):
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(img), info.min, info.max).astype(dtype)
+    return img.astype(dtype)

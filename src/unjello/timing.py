@@ -1,0 +1,217 @@
+"""Sensor timing: when each scanline of a rolling-shutter frame is imaged.
+
+This module is the single place for the time and geometry conventions of unjello.
+
+Conventions
+-----------
+* Pixel coordinates: ``x`` to the right, ``y`` down; arrays are ``(row, col[, channel])``.
+* Time unit: the (nominal) frame interval ``T``; frame ``n`` of a constant-rate clip
+  starts at ``t = n``. With variable frame rate, frame ``n`` starts at its real
+  timestamp divided by the nominal interval.
+* Readout ratio ``rho`` = readout time / ``T``, ``0 < rho <= 1``. The paper
+  (Liang, Chang & Chen 2008, Sec. IV) takes ``rho = 1``: one scanline per time unit
+  and ``T`` equal to the number of lines. Here scanline ``r`` (``0 <= r < h``) of a
+  frame starting at ``t_n`` is imaged at ``t = t_n + rho * r / h``.
+* Reference time: the middle scanline ``r = (h - 1) / 2`` (the paper's eq. 11 and 26)
+  or the first scanline ``r = 0``.
+* Motion sign: a *displacement* ``D(t)`` is the image position of a static scene point
+  at time ``t`` minus its position at some origin; a *velocity* ``v = dD/dt`` is in
+  pixels per frame interval. Block-matching vectors follow the same sign: the vector
+  of a block in frame ``n`` is its position in frame ``n`` minus the position of its
+  match in frame ``n - 1`` (content moving right gives ``+x``).
+* Scan direction: frames are turned once so that the core always sees top-to-bottom
+  readout (:func:`to_top_bottom`) and turned back on output (:func:`from_top_bottom`).
+
+Examples
+--------
+>>> t = SensorTiming(readout=0.5)
+>>> t.row_times(4, start=2.0).tolist()
+[2.0, 2.125, 2.25, 2.375]
+>>> parse_readout("15.7ms", fps=30.0)
+0.471
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from .errors import SettingsError
+
+__all__ = [
+    "Direction",
+    "Reference",
+    "DIRECTIONS",
+    "REFERENCES",
+    "SensorTiming",
+    "parse_readout",
+    "to_top_bottom",
+    "from_top_bottom",
+]
+
+Direction = Literal["top-bottom", "bottom-top", "left-right", "right-left"]
+Reference = Literal["middle", "first"]
+DIRECTIONS: tuple[str, ...] = ("top-bottom", "bottom-top", "left-right", "right-left")
+REFERENCES: tuple[str, ...] = ("middle", "first")
+
+
+@dataclass(frozen=True)
+class SensorTiming:
+    """Readout ratio, scan direction and reference scanline of a rolling-shutter camera.
+
+    Parameters
+    ----------
+    readout : float
+        Readout time as a fraction of the frame interval, ``0 < readout <= 1``.
+    direction : {'top-bottom', 'bottom-top', 'left-right', 'right-left'}
+        Order in which the sensor reads its lines, in coded orientation.
+    reference : {'middle', 'first'}
+        Scanline whose time the corrected frame represents.
+    """
+
+    readout: float = 1.0
+    direction: Direction = "top-bottom"
+    reference: Reference = "middle"
+
+    def __post_init__(self) -> None:
+        if not (0.0 < float(self.readout) <= 1.0) or not np.isfinite(self.readout):
+            raise SettingsError(
+                f"readout must be in (0, 1] of the frame interval, got {self.readout!r}"
+            )
+        if self.direction not in DIRECTIONS:
+            raise SettingsError(
+                f"direction must be one of {', '.join(DIRECTIONS)}, got {self.direction!r}"
+            )
+        if self.reference not in REFERENCES:
+            raise SettingsError(
+                f"reference must be one of {', '.join(REFERENCES)}, got {self.reference!r}"
+            )
+
+    def row_times(self, height: int, start: float = 0.0) -> np.ndarray:
+        """Return the imaging time of every scanline of a frame.
+
+        Parameters
+        ----------
+        height : int
+            Number of scanlines ``h`` (in top-bottom orientation).
+        start : float
+            Start time ``t_n`` of the frame, in frame intervals.
+
+        Returns
+        -------
+        ndarray of shape (height,)
+            ``t_n + readout * r / h`` for ``r = 0 .. h-1``.
+        """
+        return start + self.readout * np.arange(height, dtype=np.float64) / height
+
+    def reference_row(self, height: int) -> float:
+        """Return the (possibly fractional) row index of the reference scanline."""
+        return (height - 1) / 2.0 if self.reference == "middle" else 0.0
+
+    def reference_time(self, height: int, start: float = 0.0) -> float:
+        """Return the time the corrected frame represents (eq. 11 and 26 for 'middle')."""
+        return start + self.readout * self.reference_row(height) / height
+
+    def lines(self, shape: tuple[int, ...]) -> int:
+        """Return the number of scanlines of a frame of ``shape`` in coded orientation."""
+        return shape[1] if self.direction in ("left-right", "right-left") else shape[0]
+
+
+_MS = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*ms\s*$")
+
+
+def parse_readout(text: str | float, fps: float | None = None) -> float:
+    """Parse a readout given as a fraction of the frame interval or in milliseconds.
+
+    Parameters
+    ----------
+    text : str or float
+        ``"0.9"`` (fraction of the frame interval) or ``"15.7ms"``.
+    fps : float, optional
+        Nominal frame rate, needed to turn milliseconds into a fraction.
+
+    Returns
+    -------
+    float
+        The readout ratio ``rho`` in ``(0, 1]``.
+
+    Raises
+    ------
+    SettingsError
+        If the value cannot be parsed or is outside ``(0, 1]``.
+    """
+    if isinstance(text, (int, float)):
+        value = float(text)
+    else:
+        m = _MS.match(text)
+        if m:
+            if not fps:
+                raise SettingsError("a readout in milliseconds needs the clip's frame rate")
+            value = round(float(m.group(1)) * 1e-3 * float(fps), 6)
+        else:
+            try:
+                value = float(text)
+            except ValueError:
+                raise SettingsError(
+                    f"cannot parse readout {text!r}: give a fraction like 0.9 or a time like 15.7ms"
+                ) from None
+    if not np.isfinite(value) or not (0.0 < value <= 1.0):
+        raise SettingsError(
+            f"readout {text!r} is outside (0, 1] of the frame interval"
+            + (f" ({value:.3f} at {fps:g} fps)" if fps and isinstance(text, str) else "")
+        )
+    return value
+
+
+def to_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:
+    """Turn an image in coded orientation so that its scanlines are read top to bottom.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W[, C])
+        Image in coded (sensor) orientation.
+    direction : str
+        Scan direction of the sensor.
+
+    Returns
+    -------
+    ndarray
+        A contiguous array whose row 0 is the first line read out.
+
+    Examples
+    --------
+    >>> a = np.arange(6).reshape(2, 3)
+    >>> to_top_bottom(a, "left-right").tolist()
+    [[0, 3], [1, 4], [2, 5]]
+    >>> bool((from_top_bottom(to_top_bottom(a, "right-left"), "right-left") == a).all())
+    True
+    """
+    if direction == "top-bottom":
+        return image
+    if direction == "bottom-top":
+        out = image[::-1]
+    elif direction == "left-right":
+        out = np.swapaxes(image, 0, 1)
+    elif direction == "right-left":
+        out = np.swapaxes(image, 0, 1)[::-1]
+    else:
+        raise SettingsError(f"unknown direction {direction!r}")
+    return np.ascontiguousarray(out)
+
+
+def from_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:
+    """Undo :func:`to_top_bottom`."""
+    if direction == "top-bottom":
+        return image
+    if direction == "bottom-top":
+        out = image[::-1]
+    elif direction == "left-right":
+        out = np.swapaxes(image, 0, 1)
+    elif direction == "right-left":
+        out = np.swapaxes(image[::-1], 0, 1)
+    else:
+        raise SettingsError(f"unknown direction {direction!r}")
+    return np.ascontiguousarray(out)

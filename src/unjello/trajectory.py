@@ -1,0 +1,162 @@
+"""The Trajectory: per-frame, per-scanline motion, the hub between all stages.
+
+For frame ``n`` a :class:`FrameMotion` holds, for every scanline ``r`` (in top-bottom
+orientation, see :mod:`unjello.timing`):
+
+* ``velocity[r]`` -- the estimated image velocity ``v'(t_r)`` in px per frame interval;
+* ``displacement[r]`` -- ``Delta(r) = integral from t_ref to t_r of v'(t) dt``, the shift
+  of that scanline relative to where it belongs at the reference time (paper eq. 26:
+  the corrected position of pixel ``s`` is ``p = s - Delta(s_y)``).
+
+Methods produce it; the warper, the exports, the metrics and the plots consume it.
+
+The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the timing, the
+frame size and, per frame, ``index``, ``start`` (in frame intervals), ``pts`` (seconds,
+or null), and ``displacement``/``velocity`` as lists of ``[x, y]`` pairs per scanline.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .timing import SensorTiming
+
+__all__ = ["FrameMotion", "Trajectory", "SCHEMA_VERSION"]
+
+SCHEMA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class FrameMotion:
+    """Motion of one frame's scanlines.
+
+    Parameters
+    ----------
+    index : int
+        Frame number in the clip.
+    start : float
+        Time of the frame's first scanline, in frame intervals.
+    displacement : ndarray of shape (h, 2)
+        Per-scanline ``(dx, dy)`` from the reference time to the scanline's time (eq. 26).
+    velocity : ndarray of shape (h, 2)
+        Per-scanline velocity in px per frame interval.
+    ok : bool
+        False when the estimate was bridged over a failure (see ``note``).
+    note : str
+        Why the estimate is not a direct measurement, if so.
+    """
+
+    index: int
+    start: float
+    displacement: np.ndarray
+    velocity: np.ndarray
+    ok: bool = True
+    note: str = ""
+
+    def to_dict(self) -> dict:
+        """Return a JSON-serialisable dict of this frame."""
+        return {
+            "index": int(self.index),
+            "start": float(self.start),
+            "ok": bool(self.ok),
+            "note": self.note,
+            "displacement": np.round(self.displacement, 4).tolist(),
+            "velocity": np.round(self.velocity, 4).tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> FrameMotion:
+        """Build a frame from :meth:`to_dict`'s output."""
+        return cls(
+            index=int(d["index"]),
+            start=float(d["start"]),
+            displacement=np.asarray(d["displacement"], dtype=np.float64).reshape(-1, 2),
+            velocity=np.asarray(d["velocity"], dtype=np.float64).reshape(-1, 2),
+            ok=bool(d.get("ok", True)),
+            note=str(d.get("note", "")),
+        )
+
+
+@dataclass
+class Trajectory:
+    """Per-scanline motion of a whole clip.
+
+    Parameters
+    ----------
+    timing : SensorTiming
+        Readout, direction and reference the displacements refer to.
+    size : tuple of int
+        ``(width, height)`` of the frames in coded orientation.
+    frames : list of FrameMotion
+        One entry per frame, in order.
+    method : str
+        Name of the method that produced it (``'paper'``, ``'truth'``, ...).
+    """
+
+    timing: SensorTiming
+    size: tuple[int, int]
+    frames: list[FrameMotion] = field(default_factory=list)
+    method: str = ""
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def displacements(self) -> np.ndarray:
+        """Return all displacements stacked, shape ``(n_frames, h, 2)``."""
+        return np.stack([f.displacement for f in self.frames])
+
+    def to_json(self) -> dict:
+        """Return the versioned JSON document (see the module docstring)."""
+        return {
+            "schema": "unjello.trajectory",
+            "version": SCHEMA_VERSION,
+            "method": self.method,
+            "readout": self.timing.readout,
+            "direction": self.timing.direction,
+            "reference": self.timing.reference,
+            "width": int(self.size[0]),
+            "height": int(self.size[1]),
+            "frames": [f.to_dict() for f in self.frames],
+        }
+
+    @classmethod
+    def from_json(cls, doc: dict) -> Trajectory:
+        """Read a document written by :meth:`to_json`."""
+        if doc.get("schema") != "unjello.trajectory":
+            raise InputError("not an unjello trajectory file (schema field missing)")
+        if int(doc.get("version", 0)) > SCHEMA_VERSION:
+            raise InputError(f"trajectory version {doc['version']} is newer than supported")
+        timing = SensorTiming(doc["readout"], doc["direction"], doc["reference"])
+        return cls(
+            timing=timing,
+            size=(int(doc["width"]), int(doc["height"])),
+            frames=[FrameMotion.from_dict(f) for f in doc["frames"]],
+            method=str(doc.get("method", "")),
+        )
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the JSON document atomically to ``path``."""
+        path = Path(path)
+        tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+        tmp.write_text(json.dumps(self.to_json()))
+        os.replace(tmp, path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Trajectory:
+        """Read a trajectory JSON file."""
+        try:
+            doc = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(f"cannot read trajectory {path}: {exc}") from None
+        return cls.from_json(doc)
+
+    def extend(self, frames: Iterable[FrameMotion]) -> None:
+        """Append frames."""
+        self.frames.extend(frames)

@@ -1,0 +1,281 @@
+"""Scanline realignment (paper Sec. V.D, eq. 26): splatting, hole filling, fast remap.
+
+Liang, Chang & Chen (2008), Sec. V.D. With the per-scanline velocity ``v'(t)`` known,
+pixel ``s`` of frame ``n`` belongs at (eq. 26, in our time unit and readout ``rho``)
+
+    p = s - integral from t_ref to t(s_y) of v'(t) dt,   t(s_y) = t_n + rho s_y / h,
+
+where ``t_ref`` is the time of the reference scanline (the middle one in the paper, or
+the first). The integral, ``Delta(s_y)``, depends only on the row, so all pixels of a
+scanline move together (:func:`scanline_displacement`). Two ways to apply it:
+
+* :func:`splat` -- the paper's forward mapping: the intensity of ``s`` is given to the
+  four grid points nearest ``p``, each weighted inversely to its distance to ``p``;
+  every grid point is normalised by the weights it received; pixels that received
+  nothing are filled by averaging valid neighbours (cracks), and what is still empty
+  (the area no scanline reached) is black, as in the paper's Fig. 10-11, or copied
+  from the nearest valid pixel.
+* :func:`remap` -- a backward warp of the same displacement with ``cv2.remap``:
+  because ``Delta`` depends only on the row, the inverse of ``p_y = s_y - Delta_y(s_y)``
+  is a 1-D monotone interpolation, so the backward map is exact, not a fixed point.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from .timing import SensorTiming
+
+__all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
+           "remap", "warp_image", "fill_holes"]
+
+Fill = Literal["black", "nearest"]
+WarpMode = Literal["remap", "splat"]
+
+
+def scanline_displacement(velocity: np.ndarray, timing: SensorTiming) -> np.ndarray:
+    """Integrate per-scanline velocity from the reference time (eq. 26).
+
+    Parameters
+    ----------
+    velocity : ndarray of shape (h, 2)
+        ``v'(t_r)`` for every scanline ``r``, px per frame interval.
+    timing : SensorTiming
+        Readout ratio and reference scanline.
+
+    Returns
+    -------
+    ndarray of shape (h, 2)
+        ``Delta(r) = integral from t_ref to t_r of v'(t) dt`` (trapezoid rule on the
+        scanline grid, whose step is ``rho / h``).
+
+    Examples
+    --------
+    A constant velocity of 3 px per frame with a full readout moves the last of 5 rows
+    by ``3 * 2/5`` relative to the middle row:
+
+    >>> d = scanline_displacement(np.tile([3.0, 0.0], (5, 1)), SensorTiming(1.0))
+    >>> np.round(d[:, 0], 3).tolist()
+    [-1.2, -0.6, 0.0, 0.6, 1.2]
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    h = v.shape[0]
+    dt = timing.readout / h
+    cum = np.zeros_like(v)
+    if h > 1:
+        cum[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
+    ref = timing.reference_row(h)
+    rows = np.arange(h, dtype=np.float64)
+    at_ref = np.array([np.interp(ref, rows, cum[:, k]) for k in range(2)])
+    return cum - at_ref
+
+
+def resample_displacement(displacement: np.ndarray, height: int, width_scale: float,
+                          height_scale: float) -> np.ndarray:
+    """Displacement for a plane of another resolution (e.g. 4:2:0 chroma).
+
+    Parameters
+    ----------
+    displacement : ndarray of shape (h, 2)
+        Per-scanline displacement at full resolution.
+    height : int
+        Rows of the target plane.
+    width_scale, height_scale : float
+        Target size divided by full size along x and y.
+
+    Returns
+    -------
+    ndarray of shape (height, 2)
+    """
+    h = displacement.shape[0]
+    src_rows = (np.arange(height) + 0.5) / height_scale - 0.5
+    rows = np.arange(h, dtype=np.float64)
+    out = np.stack([np.interp(src_rows, rows, displacement[:, k]) for k in range(2)], axis=1)
+    return out * np.array([width_scale, height_scale])
+
+
+def _inverse_rows(displacement: np.ndarray) -> np.ndarray:
+    """Solve ``s_y - Delta_y(s_y) = p_y`` for every output row ``p_y``."""
+    h = displacement.shape[0]
+    rows = np.arange(h, dtype=np.float64)
+    f = np.maximum.accumulate(rows - displacement[:, 1])
+    s = np.interp(rows, f, rows)
+    lo, hi = rows < f[0], rows > f[-1]
+    s[lo] = rows[lo] + displacement[0, 1]
+    s[hi] = rows[hi] + displacement[-1, 1]
+    return s
+
+
+def remap_maps(displacement: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps ``(map_x, map_y)`` of shape (h, w) for :func:`cv2.remap`."""
+    h = displacement.shape[0]
+    sy = _inverse_rows(displacement)
+    rows = np.arange(h, dtype=np.float64)
+    dx = np.interp(sy, rows, displacement[:, 0])
+    map_x = (np.arange(width, dtype=np.float32)[None, :] + dx[:, None].astype(np.float32))
+    map_y = np.broadcast_to(sy[:, None].astype(np.float32), (h, width))
+    return map_x, np.ascontiguousarray(map_y)
+
+
+def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Backward warp of eq. 26's displacement with bilinear ``cv2.remap``.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+        Frame in top-bottom orientation.
+    displacement : ndarray of shape (h, 2)
+        Per-scanline ``Delta`` from :func:`scanline_displacement`.
+    fill : {'nearest', 'black'}
+        What to put where no scanline lands.
+
+    Returns
+    -------
+    out : ndarray like ``image``
+        The corrected frame.
+    valid : ndarray of bool, shape (h, w)
+        True where the output was sampled from inside the frame.
+    """
+    h, w = image.shape[:2]
+    map_x, map_y = remap_maps(displacement, w)
+    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
+    out = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
+    valid = (map_x >= -0.5) & (map_x <= w - 0.5) & (map_y >= -0.5) & (map_y <= h - 0.5)
+    return out, valid
+
+
+def fill_holes(image: np.ndarray, valid: np.ndarray, fill: Fill = "nearest",
+               crack_passes: int = 2) -> np.ndarray:
+    """Fill pixels that received no value.
+
+    Small holes (cracks between splatted scanlines) are filled by averaging their valid
+    3x3 neighbours, ``crack_passes`` times (the paper: "filled by averaging the nearby
+    pixels"); what remains is black or a copy of the nearest valid pixel.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c]), float
+        Image with undefined values where ``valid`` is False.
+    valid : ndarray of bool, shape (h, w)
+    fill : {'nearest', 'black'}
+    crack_passes : int
+
+    Returns
+    -------
+    ndarray
+        A filled copy.
+    """
+    img = image.astype(np.float32, copy=True)
+    ok = valid.copy()
+    img[~ok] = 0
+    kernel = np.ones((3, 3), np.float32)
+    for _ in range(crack_passes):
+        holes = ~ok
+        if not holes.any():
+            break
+        wsum = cv2.filter2D(ok.astype(np.float32), -1, kernel, borderType=cv2.BORDER_CONSTANT)
+        acc = cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_CONSTANT)
+        if acc.ndim == 2 and img.ndim == 3:
+            acc = acc[..., None]
+        # Only true cracks: at least 3 valid neighbours.
+        fillable = holes & (wsum >= 3)
+        if not fillable.any():
+            break
+        avg = acc / np.maximum(wsum, 1e-9)[..., None] if img.ndim == 3 else acc / np.maximum(
+            wsum, 1e-9)
+        img[fillable] = avg[fillable]
+        ok = ok | fillable
+    if (~ok).any():
+        if fill == "nearest" and ok.any():
+            _, labels = cv2.distanceTransformWithLabels(
+                (~ok).astype(np.uint8), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL)
+            src = np.flatnonzero(ok.ravel())
+            # labels index valid pixels in raster order of the zero pixels of the input.
+            lut = np.zeros(labels.max() + 1, dtype=np.int64)
+            lab_valid = labels.ravel()[src]
+            lut[lab_valid] = src
+            nearest = lut[labels.ravel()]
+            flat = img.reshape(img.shape[0] * img.shape[1], -1)
+            holes_flat = ~ok.ravel()
+            flat[holes_flat] = flat[nearest[holes_flat]]
+            img = flat.reshape(img.shape)
+        else:
+            img[~ok] = 0
+    return img
+
+
+def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
+          eps: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Forward splatting of eq. 26 with inverse-distance weights (Sec. V.D).
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+        Frame in top-bottom orientation.
+    displacement : ndarray of shape (h, 2)
+        Per-scanline ``Delta``; pixel ``s`` goes to ``p = s - Delta(s_y)``.
+    fill : {'nearest', 'black'}
+        What to put where no pixel lands (after crack filling).
+    eps : float
+        Added to distances so a pixel landing on a grid point keeps its value.
+
+    Returns
+    -------
+    out : ndarray like ``image``
+    valid : ndarray of bool, shape (h, w)
+        True where at least one pixel landed.
+    """
+    h, w = image.shape[:2]
+    img = image.reshape(h, w, -1).astype(np.float64)
+    c = img.shape[2]
+    py = np.arange(h, dtype=np.float64)[:, None] - displacement[:, 1:2]
+    px = np.arange(w, dtype=np.float64)[None, :] - displacement[:, 0:1]
+    py = np.broadcast_to(py, (h, w)).ravel()
+    px = px.ravel()
+    vals = img.reshape(-1, c)
+    x0, y0 = np.floor(px), np.floor(py)
+    n = h * w
+    wsum = np.zeros(n)
+    acc = np.zeros((n, c))
+    for ox in (0.0, 1.0):
+        for oy in (0.0, 1.0):
+            gx, gy = x0 + ox, y0 + oy
+            inside = (gx >= 0) & (gx < w) & (gy >= 0) & (gy < h)
+            wt = 1.0 / (np.hypot(gx - px, gy - py) + eps)
+            idx = (gy * w + gx).astype(np.int64)[inside]
+            wi = wt[inside]
+            wsum += np.bincount(idx, weights=wi, minlength=n)
+            for k in range(c):
+                acc[:, k] += np.bincount(idx, weights=wi * vals[inside, k], minlength=n)
+    valid = (wsum > 0).reshape(h, w)
+    out = (acc / np.maximum(wsum, 1e-300)[:, None]).reshape(h, w, c)
+    out = fill_holes(out.astype(np.float32), valid, fill)
+    out = out.reshape(image.shape)
+    if np.issubdtype(image.dtype, np.integer):
+        info = np.iinfo(image.dtype)
+        out = np.clip(np.rint(out), info.min, info.max)
+    return out.astype(image.dtype), valid
+
+
+def warp_image(image: np.ndarray, displacement: np.ndarray, *, mode: WarpMode = "remap",
+               fill: Fill = "nearest") -> tuple[np.ndarray, np.ndarray]:
+    """Correct one image (top-bottom orientation) by the per-scanline displacement.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+    displacement : ndarray of shape (h, 2)
+    mode : {'remap', 'splat'}
+    fill : {'nearest', 'black'}
+
+    Returns
+    -------
+    out, valid : see :func:`remap` and :func:`splat`.
+    """
+    if mode == "splat":
+        return splat(image, displacement, fill)
+    return remap(image, displacement, fill)
