@@ -1,1 +1,58 @@
-"""unjello."""
+"""unjello: remove rolling-shutter distortion (skew, wobble, jello) from video.
+
+The public surface is declared once, here. Typical use::
+
+    import unjello
+    unjello.correct_video("in.mp4", "out.mp4", readout=0.9)
+    frames, trajectory = unjello.correct_frames(list_of_arrays, unjello.SensorTiming(0.9))
+
+See :mod:`unjello.timing` for the conventions of time, geometry and sign.
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from .errors import InputError, OutputError, SettingsError, UnjelloError
+from .io.video import EncodeOptions
+from .motion.global_motion import BlockMatchConfig
+from .motion.paper import PaperConfig, PaperMethod
+from .motion.refine import RefineConfig
+from .pipeline import (
+    CorrectionConfig,
+    Corrector,
+    correct,
+    correct_frames,
+    correct_video,
+    evaluate,
+    simulate_clip,
+)
+from .simulate import Motion, simulate
+from .timing import SensorTiming, parse_readout
+from .trajectory import FrameMotion, Trajectory
+
+__all__ = [
+    "__version__",
+    "BlockMatchConfig",
+    "CorrectionConfig",
+    "Corrector",
+    "EncodeOptions",
+    "FrameMotion",
+    "InputError",
+    "Motion",
+    "OutputError",
+    "PaperConfig",
+    "PaperMethod",
+    "RefineConfig",
+    "SensorTiming",
+    "SettingsError",
+    "Trajectory",
+    "UnjelloError",
+    "correct",
+    "correct_frames",
+    "correct_video",
+    "evaluate",
+    "parse_readout",
+    "simulate",
+    "simulate_clip",
+]

@@ -8,6 +8,7 @@ a handful of frames are held, however long the clip.
 from __future__ import annotations
 
 import os
+import shutil
 import uuid
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
@@ -210,9 +211,7 @@ def _temp_path(dst: Path) -> Path:
 def _check_paths(src: Path, dst: Path, overwrite: bool) -> None:
     if not src.exists():
         raise InputError(f"{src}: no such file or folder")
-    if dst.exists() and (dst.resolve() == src.resolve() or os.path.samefile(src, dst)):
-        raise OutputError(f"output {dst} is the input; choose another name")
-    if dst.resolve() == src.resolve():
+    if dst.resolve() == src.resolve() or (dst.exists() and os.path.samefile(src, dst)):
         raise OutputError(f"output {dst} is the input; choose another name")
     if dst.exists() and not overwrite:
         raise OutputError(f"{dst} exists; pass -y to overwrite it")
@@ -289,13 +288,11 @@ correct = correct_video
 def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
                     config: CorrectionConfig, progress: Progress | None) -> Trajectory:
     files = list_frames(src)
-    rho = parse_readout(readout) if isinstance(readout, str) and not readout.endswith(
-        "ms") else readout
-    if isinstance(rho, str):
+    if isinstance(readout, str) and readout.strip().endswith("ms"):
         raise SettingsError("a readout in milliseconds needs a video (a folder has no fps)")
-    timing = SensorTiming(float(rho), direction, reference)  # type: ignore[arg-type]
+    timing = SensorTiming(parse_readout(readout), direction, reference)  # type: ignore[arg-type]
     first = read_image(files[0])
-    if min(timing.lines(first.shape), first.shape[1 - ("left" in direction) * 0]) < 16:
+    if min(first.shape[:2]) < 16:
         raise InputError(f"{src}: frames of {first.shape[1]}x{first.shape[0]} are too small")
 
     def images() -> Iterable[np.ndarray]:
@@ -326,15 +323,13 @@ def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, 
         for i, img in enumerate(images()):
             emit(corr.push([img], float(i)))
         emit(corr.flush())
-        if dst.exists():
-            import shutil
-
-            shutil.rmtree(dst) if dst.is_dir() else dst.unlink()
+        if dst.is_dir():
+            shutil.rmtree(dst)
+        elif dst.exists():
+            dst.unlink()
         os.replace(tmp, dst)
     finally:
         if tmp.exists():
-            import shutil
-
             shutil.rmtree(tmp, ignore_errors=True)
     return traj
 
@@ -352,7 +347,7 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
         corr = Corrector(timing, config, max_value=max_value)
         traj = Trajectory(timing, (info.width, info.height), method=config.method)
         tmp = _temp_path(dst)
-        writer = VideoWriter(tmp, reader, encode)
+        writer = VideoWriter.like(tmp, reader, encode)
         pts_queue: deque[int | None] = deque()
         tb = float(info.time_base)
         first_pts: int | None = None
@@ -387,3 +382,234 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
             raise
     os.replace(tmp, dst)
     return traj
+
+
+VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm")
+
+
+class FrameSink:
+    """Write RGB frames to a video file or a folder of PNGs, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        ``*.mp4`` (or another video suffix) for a video, anything else for a folder
+        that receives ``frame_00000.png`` ...
+    fps : float
+        Frame rate of a video.
+    overwrite : bool
+        Replace an existing output.
+    encode : EncodeOptions
+        Encoder settings of a video.
+    """
+
+    def __init__(self, path: str | os.PathLike, fps: float = 30.0, overwrite: bool = False,
+                 encode: EncodeOptions = EncodeOptions()) -> None:
+        self.path = Path(path)
+        if self.path.exists() and not overwrite:
+            raise OutputError(f"{self.path} exists; pass -y to overwrite it")
+        parent = self.path.parent
+        if not parent.exists():
+            raise OutputError(f"{parent}: output folder does not exist")
+        self.is_video = self.path.suffix.lower() in VIDEO_SUFFIXES
+        self._tmp = _temp_path(self.path)
+        self._fps, self._encode = fps, encode
+        self._writer: VideoWriter | None = None
+        self._n = 0
+        if not self.is_video:
+            self._tmp.mkdir()
+
+    def write(self, image: np.ndarray) -> None:
+        """Append one frame."""
+        if self.is_video:
+            if self._writer is None:
+                h, w = image.shape[:2]
+                if w % 2 or h % 2:
+                    raise OutputError("video frames need an even width and height")
+                self._writer = VideoWriter(self._tmp, size=(w, h), fps=self._fps,
+                                           options=self._encode)
+            self._writer.write_rgb(image)
+        else:
+            write_image(self._tmp / f"frame_{self._n:05d}.png", image)
+        self._n += 1
+
+    def close(self) -> None:
+        """Finish and move the output into place."""
+        if self._writer is not None:
+            self._writer.close()
+        if self.path.exists():
+            if self.path.is_dir():
+                shutil.rmtree(self.path)
+            else:
+                self.path.unlink()
+        os.replace(self._tmp, self.path)
+
+    def abort(self) -> None:
+        """Drop the partial output."""
+        if self._writer is not None:
+            self._writer.abort()
+        if self._tmp.is_dir():
+            shutil.rmtree(self._tmp, ignore_errors=True)
+        elif self._tmp.exists():
+            self._tmp.unlink()
+
+    def __enter__(self) -> FrameSink:
+        return self
+
+    def __exit__(self, exc_type: object, *rest: object) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def read_source(path: str | os.PathLike) -> tuple[Callable[[int], np.ndarray] | np.ndarray,
+                                                     float | None]:
+    """Open a simulation source: an image, or a video read frame by frame in order.
+
+    Returns
+    -------
+    scene : ndarray or callable
+        The image, or ``scene(n)`` returning video frame ``n`` (sequential access; the
+        last frame repeats past the end).
+    fps : float or None
+        The video's frame rate.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: no such file")
+    if p.suffix.lower() not in VIDEO_SUFFIXES:
+        return read_image(p), None
+    reader = VideoReader(p)
+    frames = reader.rgb_frames()
+    state: dict = {"n": -1, "img": None}
+
+    def scene(n: int) -> np.ndarray:
+        while state["n"] < n:
+            nxt = next(frames, None)
+            if nxt is None:
+                if state["img"] is None:
+                    raise InputError(f"{p}: the video has no frames")
+                break
+            state["n"] += 1
+            state["img"] = nxt
+        return state["img"]
+
+    return scene, reader.info.fps
+
+
+def simulate_clip(source: str | os.PathLike, rolling_out: str | os.PathLike,
+                  truth_out: str | os.PathLike, *, motion: str = "pan",
+                  timing: SensorTiming = SensorTiming(), frames: int = 30,
+                  fps: float | None = None, size: tuple[int, int] | None = None,
+                  speed: float = 8.0, amplitude: float = 1.0, exposure: float = 0.0,
+                  overwrite: bool = False, truth_motion: str | os.PathLike | None = None,
+                  encode: EncodeOptions = EncodeOptions()) -> Trajectory:
+    """Render a rolling-shutter clip and its global-shutter truth to files.
+
+    Parameters
+    ----------
+    source : path-like
+        A still image (panned over) or a global-shutter video.
+    rolling_out, truth_out : path-like
+        Outputs: video files (``.mp4`` ...) or folders of PNG frames.
+    motion : str
+        A motion name of :data:`unjello.simulate.MOTIONS` or a JSON file.
+    timing : SensorTiming
+        Readout, direction, reference.
+    frames : int
+        Number of frames.
+    fps : float, optional
+        Frame rate (default: the source video's, else 30).
+    size : tuple of int, optional
+        Output ``(width, height)``.
+    speed, amplitude, exposure : float
+        See :class:`unjello.simulate.Motion` and :func:`unjello.simulate.simulate`.
+    overwrite : bool
+        Replace existing outputs.
+    truth_motion : path-like, optional
+        Where to write the true trajectory (default ``<truth_out>.motion.json``).
+    encode : EncodeOptions
+        Encoder settings of video outputs.
+
+    Returns
+    -------
+    Trajectory
+        The true per-scanline motion.
+    """
+    from .simulate import motion_from_spec, simulate
+
+    scene, src_fps = read_source(source)
+    fps = float(fps or src_fps or 30.0)
+    mot = motion_from_spec(motion, fps=fps, speed=speed, amplitude=amplitude, n_frames=frames)
+    truth_motion = Path(truth_motion or f"{truth_out}.motion.json")
+    traj: Trajectory | None = None
+    with FrameSink(rolling_out, fps, overwrite, encode) as rs_sink, \
+            FrameSink(truth_out, fps, overwrite, encode) as gs_sink:
+        for sf in simulate(scene, mot, timing, frames, size=size, exposure=exposure):
+            if traj is None:
+                h, w = sf.rolling.shape[:2]
+                traj = Trajectory(timing, (w, h), method="truth")
+            rs_sink.write(sf.rolling)
+            gs_sink.write(sf.truth)
+            traj.frames.append(sf.motion)
+    assert traj is not None
+    traj.save(truth_motion)
+    return traj
+
+
+def read_frames(path: str | os.PathLike) -> Iterable[np.ndarray]:
+    """Yield the frames of a video (RGB) or an image folder, in order."""
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: no such file or folder")
+    if p.is_dir():
+        for f in list_frames(p):
+            yield read_image(f)
+    else:
+        with VideoReader(p) as reader:
+            yield from reader.rgb_frames()
+
+
+def evaluate(output: str | os.PathLike, truth: str | os.PathLike, *,
+             motion: str | os.PathLike | None = None,
+             true_motion: str | os.PathLike | None = None, margin: int = 0) -> list[dict]:
+    """Score corrected frames against global-shutter truth, frame by frame.
+
+    Parameters
+    ----------
+    output, truth : path-like
+        Videos or image folders with the same number of frames.
+    motion, true_motion : path-like, optional
+        Estimated and true trajectories (JSON); with both, the per-scanline displacement
+        error is reported too (``true_motion`` defaults to ``<truth>.motion.json`` when
+        that file exists).
+    margin : int
+        Pixels cropped from every side before PSNR/SSIM.
+
+    Returns
+    -------
+    list of dict
+        ``frame``, ``psnr``, ``ssim`` and, with trajectories, ``displacement_error`` and
+        ``uncorrected_error`` (px).
+    """
+    from .metrics import displacement_error, psnr, ssim
+
+    if true_motion is None and Path(f"{truth}.motion.json").exists():
+        true_motion = Path(f"{truth}.motion.json")
+    est = Trajectory.load(motion) if motion else None
+    tru = Trajectory.load(true_motion) if true_motion else None
+    rows = []
+    for i, (a, b) in enumerate(zip(read_frames(output), read_frames(truth), strict=False)):
+        if a.shape[:2] != b.shape[:2]:
+            raise InputError(f"frame {i}: output {a.shape[1]}x{a.shape[0]} and truth "
+                             f"{b.shape[1]}x{b.shape[0]} differ in size")
+        row = {"frame": i, "psnr": psnr(a, b, margin), "ssim": ssim(a, b, margin)}
+        if tru is not None and i < len(tru.frames):
+            row["uncorrected_error"] = displacement_error(None, tru.frames[i])
+            if est is not None and i < len(est.frames):
+                row["displacement_error"] = displacement_error(est.frames[i], tru.frames[i])
+        rows.append(row)
+    if not rows:
+        raise InputError("no frames to compare")
+    return rows

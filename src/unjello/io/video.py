@@ -189,11 +189,13 @@ class VideoReader:
         except av.FFmpegError as exc:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
 
-    def frames(self) -> Iterator[tuple[list[np.ndarray], int | None]]:
-        """Yield ``(planes, pts)`` of every video frame."""
-        for kind, item, pts in self.packets():
-            if kind == "video":
-                yield item, pts  # type: ignore[misc]
+    def rgb_frames(self) -> Iterator[np.ndarray]:
+        """Yield every video frame as an RGB uint8 array (coded orientation)."""
+        try:
+            for frame in self._c.decode(self._vs):
+                yield frame.to_ndarray(format="rgb24")
+        except av.FFmpegError as exc:
+            raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
 
     def _planes(self, frame: av.VideoFrame) -> list[np.ndarray]:
         if frame.format.name != self.work_format:
@@ -202,60 +204,86 @@ class VideoReader:
 
 
 class VideoWriter:
-    """Encode planes to a video file, with audio streams copied from a reader.
+    """Encode frames to a video file, optionally copying audio streams unchanged.
 
     Parameters
     ----------
     path : path-like
         Output file (written as is; atomicity is the caller's temp-and-rename).
-    reader : VideoReader
-        Source of the time base, rate, rotation, colour tags and audio streams.
+    size : tuple of int
+        ``(width, height)`` of the frames.
+    fps : float
+        Nominal frame rate.
+    time_base : Fraction, optional
+        Time base of the pts given to :meth:`write` (default ``1/fps``).
+    pix_fmt : str
+        Pixel format of the planes given to :meth:`write`.
     options : EncodeOptions
         Codec, CRF and preset.
-    size : tuple of int, optional
-        ``(width, height)`` of the frames to encode; default the reader's.
+    rotation : int
+        Display rotation to tag the stream with (degrees).
+    color : dict, optional
+        ``color_range``, ``colorspace``, ``color_primaries``, ``color_trc`` to tag.
+    audio : sequence of av streams
+        Input audio streams whose packets :meth:`copy_audio` will mux.
     """
 
-    def __init__(self, path: str | os.PathLike, reader: VideoReader,
-                 options: EncodeOptions = EncodeOptions(),
-                 size: tuple[int, int] | None = None) -> None:
-        info = reader.info
-        self._fmt = reader.work_format
+    def __init__(self, path: str | os.PathLike, *, size: tuple[int, int], fps: float,
+                 time_base: Fraction | None = None, pix_fmt: str = "yuv420p",
+                 options: EncodeOptions = EncodeOptions(), rotation: int = 0,
+                 color: dict | None = None, audio: tuple = ()) -> None:
+        self._fmt = pix_fmt
+        rate = Fraction(fps).limit_denominator(100000)
+        self._time_base = time_base or Fraction(1, 1) / rate
         try:
             self._c = av.open(str(path), "w")
         except (av.FFmpegError, ValueError) as exc:
             raise OutputError(f"{path}: cannot create output ({exc})") from None
         try:
-            vs = self._c.add_stream(options.codec, rate=Fraction(info.fps).limit_denominator(
-                100000))
+            vs = self._c.add_stream(options.codec, rate=rate)
         except (av.FFmpegError, ValueError) as exc:
+            self._c.close()
             raise OutputError(f"unknown or unavailable codec {options.codec!r} ({exc})") from None
-        w, h = size or (info.width, info.height)
-        vs.width, vs.height = w, h
-        vs.pix_fmt = self._fmt
-        vs.time_base = info.time_base
-        vs.codec_context.time_base = info.time_base
+        vs.width, vs.height = size
+        vs.pix_fmt = pix_fmt
+        vs.time_base = self._time_base
+        vs.codec_context.time_base = self._time_base
         vs.thread_type = "AUTO"
         opts = {"preset": options.preset}
         if options.codec in ("libx264", "libx265"):
             opts["crf"] = str(options.crf)
         vs.options = opts
-        for k, v in info.color.items():
+        for k, v in (color or {}).items():
             if v is not None:
                 try:
                     setattr(vs.codec_context, k, v)
                 except (AttributeError, ValueError, TypeError):
                     pass
-        if info.rotation:
-            vs.set_display_rotation(info.rotation)
+        if rotation:
+            vs.set_display_rotation(rotation)
         self._vs = vs
-        self._audio = {a.index: self._c.add_stream_from_template(a) for a in reader.audio}
-        self._time_base = info.time_base
+        self._audio = {a.index: self._c.add_stream_from_template(a) for a in audio}
         self.frames_written = 0
 
+    @classmethod
+    def like(cls, path: str | os.PathLike, reader: VideoReader,
+             options: EncodeOptions = EncodeOptions()) -> VideoWriter:
+        """Make a writer with the reader's size, rate, format, rotation, colour and audio."""
+        info = reader.info
+        return cls(path, size=(info.width, info.height), fps=info.fps, time_base=info.time_base,
+                   pix_fmt=reader.work_format, options=options, rotation=info.rotation,
+                   color=info.color, audio=tuple(reader.audio))
+
     def write(self, planes: list[np.ndarray], pts: int | None) -> None:
-        """Encode one frame at ``pts`` (input time base)."""
-        frame = planes_frame(planes, self._fmt)
+        """Encode one frame given as planes, at ``pts`` (in the writer's time base)."""
+        self._encode(planes_frame(planes, self._fmt), pts)
+
+    def write_rgb(self, image: np.ndarray, pts: int | None = None) -> None:
+        """Encode one RGB (uint8) frame; ``pts`` defaults to the frame count."""
+        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image[..., :3]), format="rgb24")
+        self._encode(frame.reformat(format=self._fmt), self.frames_written if pts is None else pts)
+
+    def _encode(self, frame: av.VideoFrame, pts: int | None) -> None:
         frame.pts = pts
         frame.time_base = self._time_base
         for packet in self._vs.encode(frame):

@@ -167,6 +167,8 @@ def block_match(
     offs = np.arange(0, b, sub)
     oy, ox = np.meshgrid(offs, offs, indexing="ij")
     oy, ox = oy.ravel(), ox.ravel()
+    s_half = _box_sums(p, b // 2)
+    hy2, hx2 = (a.ravel() for a in np.meshgrid([0, b // 2], [0, b // 2], indexing="ij"))
     yy, xx = np.mgrid[0:b, 0:b]
     yy, xx = yy.ravel(), xx.ravel()
 
@@ -192,23 +194,53 @@ def block_match(
             k = min(16, lb.size)
             seeds = np.argpartition(lb, k - 1)[:k]
             hy, hx = int(round(by - hint[1])), int(round(bx - hint[0]))
-            extra = [(by, bx), (hy, hx)]
-            extra_idx = [(yy_ - y0) * ww + (xx_ - x0) for yy_, xx_ in extra
-                         if y0 <= yy_ <= y1 and x0 <= xx_ <= x1]
-            seeds = np.concatenate([seeds, np.asarray(extra_idx, dtype=seeds.dtype)])
+            ey = np.clip(np.array([by] + [hy + d for d in (-2, -1, 0, 1, 2) for _ in range(5)]),
+                         y0, y1)
+            ex = np.clip(np.array([bx] + [hx + d for _ in range(5) for d in (-2, -1, 0, 1, 2)]),
+                         x0, x1)
+            seeds = np.concatenate([seeds, (ey - y0) * ww + (ex - x0)])
             # Bounds and SADs are float sums: a small tolerance keeps ties in.
             best = sad_at(seeds).min() * (1 + 1e-9) + 1e-3
-            # Successive elimination: whole-block bound, then 4x4 sub-block bound.
+            # Successive elimination: whole-block bound, then 4x4 sub-block bound; the
+            # survivors get exact SADs in order of their bound, the bound tightening as
+            # better matches are found.
             cand = np.flatnonzero(lb <= best)
+            bound = lb[cand]
             if sub > 1 and cand.size > 64:
-                cb = blk.reshape(b // sub, sub, b // sub, sub).sum(axis=(1, 3)).ravel()
                 cy = cand // ww + y0
                 cx = cand % ww + x0
-                lb2 = np.abs(s_sub[cy[:, None] + oy[None], cx[:, None] + ox[None]] - cb[None])
-                cand = cand[lb2.sum(axis=1) <= best]
-            sad = np.concatenate([sad_at(cand[i:i + 4096]) for i in range(0, cand.size, 4096)])
-            i_best = int(cand[int(np.argmin(sad))])
-            s0 = float(sad.min())
+                h2 = b // 2
+                c8 = blk.reshape(2, h2, 2, h2).sum(axis=(1, 3)).ravel()
+                bound = np.abs(s_half[cy[:, None] + hy2[None], cx[:, None] + hx2[None]]
+                               - c8[None]).sum(axis=1)
+                keep = bound <= best
+                cand, bound, cy, cx = cand[keep], bound[keep], cy[keep], cx[keep]
+                if cand.size > 64:
+                    cb = blk.reshape(b // sub, sub, b // sub, sub).sum(axis=(1, 3)).ravel()
+                    bound = np.abs(s_sub[cy[:, None] + oy[None], cx[:, None] + ox[None]]
+                                   - cb[None]).sum(axis=1)
+                    keep = bound <= best
+                    cand, bound = cand[keep], bound[keep]
+            order = np.argsort(bound, kind="stable")
+            cand, bound = cand[order], bound[order]
+            done_idx, done_sad = [], []
+            pos = 0
+            while pos < cand.size:
+                chunk = cand[pos:pos + 256]
+                sad_c = sad_at(chunk)
+                done_idx.append(chunk)
+                done_sad.append(sad_c)
+                best = min(best, float(sad_c.min()) * (1 + 1e-9) + 1e-3)
+                pos += chunk.size
+                rest = bound[pos:] <= best
+                cand = np.concatenate([cand[:pos], cand[pos:][rest]])
+                bound = np.concatenate([bound[:pos], bound[pos:][rest]])
+            idx_all = np.concatenate(done_idx)
+            sad = np.concatenate(done_sad)
+            s_min = sad.min()
+            ties = idx_all[sad == s_min]
+            i_best = int(ties.min())
+            s0 = float(s_min)
             py, px = i_best // ww + y0, i_best % ww + x0
             # Parabolic sub-pixel refinement on the SAD of the 4-neighbours.
             frac = [0.0, 0.0]
@@ -271,12 +303,20 @@ def histogram_peak(
     return np.array([ix - search, iy - search], dtype=np.int64), hist
 
 
+def _phase_hint(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float]:
+    """Whole-frame translation by phase correlation: a seed for the exact search."""
+    p, c = _as_gray255(prev), _as_gray255(cur)
+    win = cv2.createHanningWindow(p.shape[::-1], cv2.CV_32F)
+    (dx, dy), _ = cv2.phaseCorrelate(p, c, win)
+    return float(dx), float(dy)
+
+
 def global_motion(
     prev: np.ndarray,
     cur: np.ndarray,
     config: BlockMatchConfig = BlockMatchConfig(),
     *,
-    hint: tuple[float, float] = (0.0, 0.0),
+    hint: tuple[float, float] | None = None,
 ) -> GlobalMotion:
     """Estimate the global motion vector ``g(n)`` of ``cur`` relative to ``prev`` (Sec. V.A).
 
@@ -286,14 +326,17 @@ def global_motion(
         Consecutive frames on a 0-255 scale.
     config : BlockMatchConfig
         Block matching settings.
-    hint : tuple of float
-        Likely vector, to speed up the search (see :func:`block_match`).
+    hint : tuple of float, optional
+        Likely vector, to speed up the search (see :func:`block_match`); default: the
+        whole-frame translation by phase correlation. It never changes the result.
 
     Returns
     -------
     GlobalMotion
         Falsy (``ok=False``) when no block could be matched.
     """
+    if hint is None:
+        hint = _phase_hint(prev, cur)
     bv = block_match(prev, cur, config, hint=hint)
     if len(bv.vectors) == 0:
         return GlobalMotion(np.zeros(2), np.zeros(2, dtype=np.int64), 0.0, False)

@@ -1,0 +1,5 @@
+"""``python -m unjello``: the command line."""
+
+from .cli import main
+
+main()

@@ -1,0 +1,231 @@
+"""The ``unjello`` command line: the only place that prints, draws progress and exits.
+
+Every deliberate error (:class:`~unjello.errors.UnjelloError`) becomes one line on
+stderr and exit code 2; Ctrl-C exits with 130 after the pipeline removed its temporary
+output.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from . import __version__
+from .errors import UnjelloError
+from .io.video import EncodeOptions
+from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
+
+__all__ = ["main", "cli"]
+
+
+@contextmanager
+def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | None]:
+    """Yield a Rich progress callback on a terminal, None otherwise."""
+    if quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(),
+                  TextColumn("{task.fields[fps]:.1f} fps"), TimeRemainingColumn(),
+                  transient=True) as bar:
+        task = bar.add_task(label, total=None, fps=0.0)
+
+        def update(done: int, total: int) -> None:
+            elapsed = bar.tasks[0].elapsed or 1e-9
+            bar.update(task, completed=done, total=total or None, fps=done / elapsed)
+
+        yield update
+
+
+def _readout_option(f: Callable) -> Callable:
+    return click.option("--readout", default="1.0", show_default=True,
+                        help="Readout time: fraction of the frame interval (0 < r <= 1) "
+                             "or milliseconds, e.g. 15.7ms.")(f)
+
+
+def _timing_options(f: Callable) -> Callable:
+    f = click.option("--reference", type=click.Choice(REFERENCES), default="middle",
+                     show_default=True, help="Scanline whose time the output shows.")(f)
+    f = click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
+                     show_default=True, help="Order the sensor reads its lines (coded "
+                                             "orientation).")(f)
+    return _readout_option(f)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="unjello")
+def cli() -> None:
+    """Remove rolling-shutter distortion (skew, wobble, jello) from video."""
+
+
+@cli.command()
+@click.argument("input", type=click.Path(path_type=Path))
+@click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
+              help="Output video, or folder for a folder input.")
+@_timing_options
+@click.option("--method", type=click.Choice(["paper"]), default="paper", show_default=True,
+              help="Motion model: 'paper' = Liang, Chang & Chen 2008.")
+@click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
+              show_default=True, help="Backward remap (fast) or the paper's forward splat.")
+@click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
+              show_default=True, help="What fills the area no scanline reaches.")
+@click.option("--search", type=click.IntRange(1, 1000), default=160, show_default=True,
+              help="Global block-matching search range, px (paper: 160).")
+@click.option("--motion-out", type=click.Path(path_type=Path),
+              help="Write the estimated per-scanline motion as JSON.")
+@click.option("--codec", default="libx264", show_default=True)
+@click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
+@click.option("--preset", default="medium", show_default=True)
+@click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+def correct(input: Path, output: Path, readout: str, direction: str, reference: str,
+            method: str, warp: str, fill: str, search: int, motion_out: Path | None,
+            codec: str, crf: int, preset: str, overwrite: bool, quiet: bool) -> None:
+    """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
+    from .motion.global_motion import BlockMatchConfig
+    from .motion.paper import PaperConfig
+    from .pipeline import CorrectionConfig, correct_video
+
+    config = CorrectionConfig(method=method, warp=warp, fill=fill,  # type: ignore[arg-type]
+                              paper=PaperConfig(BlockMatchConfig(search=search)))
+    if not input.is_dir():
+        parse_readout(readout, 30.0)  # validate early, before opening anything
+    with _progress("correcting", quiet) as progress:
+        traj = correct_video(input, output, readout=readout, direction=direction,
+                             reference=reference, config=config,
+                             encode=EncodeOptions(codec, crf, preset), overwrite=overwrite,
+                             motion_out=motion_out, progress=progress)
+    bad = sum(not f.ok for f in traj.frames)
+    if bad:
+        click.echo(f"warning: motion bridged over on {bad} frame(s)", err=True)
+    if not quiet:
+        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g})",
+                   err=True)
+
+
+@cli.command()
+@click.argument("source", type=click.Path(path_type=Path))
+@click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
+              help="Rolling-shutter clip to write (.mp4 or a folder).")
+@click.option("--truth", type=click.Path(path_type=Path), required=True,
+              help="Global-shutter truth to write (.mp4 or a folder).")
+@click.option("--truth-motion", type=click.Path(path_type=Path),
+              help="True trajectory JSON (default <truth>.motion.json).")
+@click.option("--motion", default="pan", show_default=True,
+              help="pan, stop, diagonal, shake, jello, or a JSON trajectory file.")
+@_timing_options
+@click.option("--frames", type=click.IntRange(1, 100000), default=30, show_default=True)
+@click.option("--fps", type=float, help="Frame rate (default: the source's, else 30).")
+@click.option("--size", help="Output WIDTHxHEIGHT.")
+@click.option("--speed", type=float, default=8.0, show_default=True, help="Pan px/frame.")
+@click.option("--amplitude", type=float, default=1.0, show_default=True,
+              help="Scale of shake/jello.")
+@click.option("--exposure", type=click.FloatRange(0, 1), default=0.0, show_default=True,
+              help="Exposure time as a fraction of the frame interval (motion blur).")
+@click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
+@click.option("-y", "--overwrite", is_flag=True)
+def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None, motion: str,
+             readout: str, direction: str, reference: str, frames: int, fps: float | None,
+             size: str | None, speed: float, amplitude: float, exposure: float, crf: int,
+             overwrite: bool) -> None:
+    """Render a rolling-shutter clip and its truth from an image or a GS video."""
+    from .errors import SettingsError
+    from .pipeline import simulate_clip
+
+    wh = None
+    if size:
+        try:
+            w, h = (int(v) for v in size.lower().split("x"))
+            wh = (w, h)
+        except ValueError:
+            raise SettingsError(f"--size must look like 640x480, got {size!r}") from None
+    timing = SensorTiming(parse_readout(readout, fps or 30.0), direction,  # type: ignore[arg-type]
+                          reference)  # type: ignore[arg-type]
+    simulate_clip(source, output, truth, motion=motion, timing=timing, frames=frames, fps=fps,
+                  size=wh, speed=speed, amplitude=amplitude, exposure=exposure,
+                  overwrite=overwrite, truth_motion=truth_motion,
+                  encode=EncodeOptions(crf=crf))
+    click.echo(f"wrote {output} and {truth}", err=True)
+
+
+@cli.command()
+@click.argument("output", type=click.Path(path_type=Path))
+@click.argument("truth", type=click.Path(path_type=Path))
+@click.option("--motion", type=click.Path(path_type=Path),
+              help="Estimated trajectory (from correct --motion-out).")
+@click.option("--true-motion", type=click.Path(path_type=Path),
+              help="True trajectory (default <truth>.motion.json if present).")
+@click.option("--margin", type=click.IntRange(0, 10000), default=0, show_default=True,
+              help="Pixels cropped from every side before PSNR/SSIM.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+def evaluate(output: Path, truth: Path, motion: Path | None, true_motion: Path | None,
+             margin: int, as_json: bool) -> None:
+    """Score OUTPUT against global-shutter TRUTH: PSNR, SSIM, displacement error."""
+    from .pipeline import evaluate as run
+
+    rows = run(output, truth, motion=motion, true_motion=true_motion, margin=margin)
+    keys = [k for k in ("psnr", "ssim", "displacement_error", "uncorrected_error")
+            if k in rows[0]]
+    mean = {k: float(np.mean([r[k] for r in rows if k in r])) for k in keys}
+    if as_json:
+        click.echo(json.dumps({"frames": rows, "mean": mean}))
+        return
+    click.echo("frame " + " ".join(f"{k:>18}" for k in keys))
+    for r in rows:
+        click.echo(f"{r['frame']:5d} " + " ".join(f"{r[k]:18.4f}" if k in r else " " * 18
+                                                  for k in keys))
+    click.echo(" mean " + " ".join(f"{mean[k]:18.4f}" for k in keys))
+
+
+@cli.command()
+@click.option("-o", "--output", type=click.Path(path_type=Path),
+              default=Path("unjello_demo.mp4"), show_default=True,
+              help="Side-by-side before/after video; a PNG still is written beside it.")
+@click.option("--frames", type=click.IntRange(4, 1000), default=36, show_default=True)
+@click.option("-y", "--overwrite", is_flag=True)
+def demo(output: Path, frames: int, overwrite: bool) -> None:
+    """Render a rolling-shutter clip from a built-in image, correct it, show before/after."""
+    from .demo import run_demo
+
+    report = run_demo(output, frames=frames, overwrite=overwrite)
+    click.echo(f"rolling-shutter clip: readout {report['readout']:g}, pan "
+               f"{report['speed']:g} px/frame, {report['frames']} frames "
+               f"({report['width']}x{report['height']})")
+    click.echo(f"mean per-scanline displacement error: before {report['error_before']:.3f} px, "
+               f"after {report['error_after']:.3f} px "
+               f"({report['error_before'] / max(report['error_after'], 1e-9):.0f}x lower)")
+    click.echo(f"PSNR vs global-shutter truth: before {report['psnr_before']:.2f} dB, "
+               f"after {report['psnr_after']:.2f} dB")
+    click.echo(f"wrote {report['video']} (left: input, right: corrected) and {report['still']}")
+
+
+def main(argv: list[str] | None = None) -> Any:
+    """Entry point: run the CLI, turning deliberate errors into one line and an exit code."""
+    try:
+        return cli.main(args=argv, prog_name="unjello", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("interrupted", err=True)
+        sys.exit(130)
+    except KeyboardInterrupt:
+        click.echo("interrupted; partial output removed", err=True)
+        sys.exit(130)
+    except click.exceptions.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except UnjelloError as exc:
+        click.echo(f"unjello: error: {exc}", err=True)
+        sys.exit(2)
