@@ -148,13 +148,14 @@ def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
     return out, valid
 
 
-def fill_holes(image: np.ndarray, valid: np.ndarray, fill: Fill = "nearest",
-               crack_passes: int = 2) -> np.ndarray:
+def fill_holes(image: np.ndarray, valid: np.ndarray, fill: Fill = "nearest") -> np.ndarray:
     """Fill pixels that received no value.
 
-    Small holes (cracks between splatted scanlines) are filled by averaging their valid
-    3x3 neighbours, ``crack_passes`` times (the paper: "filled by averaging the nearby
-    pixels"); what remains is black or a copy of the nearest valid pixel.
+    Cracks -- holes of up to two pixels between valid pixels, found by a 3x3 morphological
+    closing of the valid mask, as left by splatting a stretched frame -- are filled by
+    averaging their valid neighbours (the paper: "filled by averaging the nearby pixels").
+    What remains (the area no scanline reached) is black or a copy of the nearest valid
+    pixel.
 
     Parameters
     ----------
@@ -162,46 +163,42 @@ def fill_holes(image: np.ndarray, valid: np.ndarray, fill: Fill = "nearest",
         Image with undefined values where ``valid`` is False.
     valid : ndarray of bool, shape (h, w)
     fill : {'nearest', 'black'}
-    crack_passes : int
 
     Returns
     -------
-    ndarray
+    ndarray of float32
         A filled copy.
     """
     img = image.astype(np.float32, copy=True)
     ok = valid.copy()
     img[~ok] = 0
+    closed = cv2.morphologyEx(ok.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8),
+                              borderType=cv2.BORDER_REPLICATE).astype(bool)
+    cracks = closed & ~ok
     kernel = np.ones((3, 3), np.float32)
-    for _ in range(crack_passes):
-        holes = ~ok
-        if not holes.any():
-            break
+    while cracks.any():
         wsum = cv2.filter2D(ok.astype(np.float32), -1, kernel, borderType=cv2.BORDER_CONSTANT)
         acc = cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_CONSTANT)
-        if acc.ndim == 2 and img.ndim == 3:
-            acc = acc[..., None]
-        # Only true cracks: at least 3 valid neighbours.
-        fillable = holes & (wsum >= 3)
+        fillable = cracks & (wsum > 0)
         if not fillable.any():
             break
-        avg = acc / np.maximum(wsum, 1e-9)[..., None] if img.ndim == 3 else acc / np.maximum(
-            wsum, 1e-9)
+        norm = np.maximum(wsum, 1e-9)
+        avg = acc / (norm[..., None] if img.ndim == 3 else norm)
         img[fillable] = avg[fillable]
-        ok = ok | fillable
+        ok |= fillable
+        cracks &= ~fillable
     if (~ok).any():
         if fill == "nearest" and ok.any():
+            # Each hole takes the value of its nearest valid pixel.
             _, labels = cv2.distanceTransformWithLabels(
                 (~ok).astype(np.uint8), cv2.DIST_L2, 3, labelType=cv2.DIST_LABEL_PIXEL)
             src = np.flatnonzero(ok.ravel())
-            # labels index valid pixels in raster order of the zero pixels of the input.
-            lut = np.zeros(labels.max() + 1, dtype=np.int64)
-            lab_valid = labels.ravel()[src]
-            lut[lab_valid] = src
+            lut = np.zeros(int(labels.max()) + 1, dtype=np.int64)
+            lut[labels.ravel()[src]] = src
             nearest = lut[labels.ravel()]
             flat = img.reshape(img.shape[0] * img.shape[1], -1)
-            holes_flat = ~ok.ravel()
-            flat[holes_flat] = flat[nearest[holes_flat]]
+            holes = ~ok.ravel()
+            flat[holes] = flat[nearest[holes]]
             img = flat.reshape(img.shape)
         else:
             img[~ok] = 0

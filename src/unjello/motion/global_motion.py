@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 __all__ = ["BlockMatchConfig", "BlockVectors", "GlobalMotion", "block_match", "histogram_peak",
-           "global_motion"]
+           "global_motion", "subpixel_offsets"]
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ class BlockVectors:
     vectors : ndarray of shape (N, 2)
         Integer ``(dx, dy)`` of the best SAD match.
     subpixel : ndarray of shape (N, 2)
-        Vectors refined by a parabola through the SAD of the neighbouring candidates.
+        Vectors refined to sub-pixel precision (:func:`subpixel_offsets`).
     sad : ndarray of shape (N,)
         Mean absolute difference per pixel at the best match.
     """
@@ -172,7 +172,7 @@ def block_match(
     yy, xx = np.mgrid[0:b, 0:b]
     yy, xx = yy.ravel(), xx.ravel()
 
-    centers, vecs, subs, sads = [], [], [], []
+    centers, vecs, sads = [], [], []
     for by in range(0, h - b + 1, b):
         for bx in range(0, w - b + 1, b):
             blk = c[by:by + b, bx:bx + b]
@@ -242,28 +242,62 @@ def block_match(
             i_best = int(ties.min())
             s0 = float(s_min)
             py, px = i_best // ww + y0, i_best % ww + x0
-            # Parabolic sub-pixel refinement on the SAD of the 4-neighbours.
-            frac = [0.0, 0.0]
-            for axis, (dy_, dx_) in enumerate(((0, 1), (1, 0))):
-                ya, xa, yb, xb = py - dy_, px - dx_, py + dy_, px + dx_
-                if ya >= 0 and xa >= 0 and yb <= h - b and xb <= w - b:
-                    sm = float(np.abs(p[ya:ya + b, xa:xa + b] - blk).sum(dtype=np.float64))
-                    sp = float(np.abs(p[yb:yb + b, xb:xb + b] - blk).sum(dtype=np.float64))
-                    den = sm - 2 * s0 + sp
-                    if den > 0:
-                        frac[axis] = float(np.clip(0.5 * (sm - sp) / den, -0.5, 0.5))
-            vx, vy = bx - px, by - py
             centers.append((bx + b / 2, by + b / 2))
-            vecs.append((vx, vy))
-            subs.append((vx - frac[0], vy - frac[1]))
+            vecs.append((bx - px, by - py))
             sads.append(s0 / (b * b))
-    shape2 = (-1, 2)
-    return BlockVectors(
-        centers=np.asarray(centers, dtype=np.float64).reshape(shape2),
-        vectors=np.asarray(vecs, dtype=np.float64).reshape(shape2),
-        subpixel=np.asarray(subs, dtype=np.float64).reshape(shape2),
-        sad=np.asarray(sads, dtype=np.float64),
-    )
+    centers_a = np.asarray(centers, dtype=np.float64).reshape(-1, 2)
+    vecs_a = np.asarray(vecs, dtype=np.float64).reshape(-1, 2)
+    tl = (centers_a - b / 2).astype(np.int64)
+    delta = subpixel_offsets(p, c, tl, tl - vecs_a.astype(np.int64), b)
+    return BlockVectors(centers=centers_a, vectors=vecs_a, subpixel=vecs_a - delta,
+                        sad=np.asarray(sads, dtype=np.float64))
+
+
+def subpixel_offsets(prev: np.ndarray, cur: np.ndarray, block_tl: np.ndarray,
+                     match_tl: np.ndarray, block: int) -> np.ndarray:
+    """Sub-pixel offset of integer block matches by one Lucas-Kanade step.
+
+    Solves ``cur_block(x) = prev(x + m + delta)`` for ``delta`` in the least-squares
+    sense after linearising ``prev`` at the integer match ``m`` (Lucas & Kanade 1981):
+    ``delta = (G^T G)^-1 G^T (cur_block - prev_patch)`` with ``G`` the gradient of
+    ``prev`` on the patch. Exact whole-pixel matches give ``delta = 0``.
+
+    Parameters
+    ----------
+    prev, cur : ndarray of shape (H, W), float32
+        Previous and current frame.
+    block_tl : ndarray of shape (N, 2)
+        Integer ``(x, y)`` top-left of each block in ``cur``.
+    match_tl : ndarray of shape (N, 2)
+        Integer ``(x, y)`` top-left of its match in ``prev``.
+    block : int
+        Block size.
+
+    Returns
+    -------
+    ndarray of shape (N, 2)
+        ``(dx, dy)`` offsets of the match positions, clipped to +/-1 px.
+    """
+    n = block_tl.shape[0]
+    if n == 0:
+        return np.zeros((0, 2))
+    gy, gx = np.gradient(prev)
+    iy, ix = np.mgrid[0:block, 0:block]
+    cy = block_tl[:, 1, None, None] + iy
+    cx = block_tl[:, 0, None, None] + ix
+    my = match_tl[:, 1, None, None] + iy
+    mx = match_tl[:, 0, None, None] + ix
+    r = (cur[cy, cx] - prev[my, mx]).reshape(n, -1).astype(np.float64)
+    jx = gx[my, mx].reshape(n, -1).astype(np.float64)
+    jy = gy[my, mx].reshape(n, -1).astype(np.float64)
+    a11, a12, a22 = (jx * jx).sum(1), (jx * jy).sum(1), (jy * jy).sum(1)
+    b1, b2 = (jx * r).sum(1), (jy * r).sum(1)
+    det = a11 * a22 - a12 * a12
+    ok = det > 1e-6 * (a11 + a22) ** 2 + 1e-12
+    safe = np.where(ok, det, 1.0)
+    dx = np.where(ok, (a22 * b1 - a12 * b2) / safe, 0.0)
+    dy = np.where(ok, (a11 * b2 - a12 * b1) / safe, 0.0)
+    return np.clip(np.stack([dx, dy], axis=1), -1.0, 1.0)
 
 
 def histogram_peak(
@@ -305,7 +339,8 @@ def histogram_peak(
 
 def _phase_hint(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float]:
     """Whole-frame translation by phase correlation: a seed for the exact search."""
-    p, c = _as_gray255(prev), _as_gray255(cur)
+    # Copies: cv2.phaseCorrelate (OpenCV 5.0) applies the window to its inputs in place.
+    p, c = _as_gray255(prev).copy(), _as_gray255(cur).copy()
     win = cv2.createHanningWindow(p.shape[::-1], cv2.CV_32F)
     (dx, dy), _ = cv2.phaseCorrelate(p, c, win)
     return float(dx), float(dy)

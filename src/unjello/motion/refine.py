@@ -37,6 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from .global_motion import subpixel_offsets
+
 __all__ = ["RefineConfig", "LocalMatches", "predict_local_motion", "inside_constraints",
            "local_block_match", "refined_velocity", "row_samples"]
 
@@ -200,17 +202,10 @@ def local_block_match(prev: np.ndarray, cur: np.ndarray, centers: np.ndarray,
         flat_idx = sad.reshape(m, -1).argmin(axis=1)
         cy, cx = np.divmod(flat_idx, 2 * r + 1)
         s0 = sad[np.arange(m), cy, cx]
-        frac = np.zeros((m, 2))
-        for axis, (ay, ax) in enumerate(((0, 1), (1, 0))):
-            ya, xa, yb, xb = cy - ay, cx - ax, cy + ay, cx + ax
-            inside = (ya >= 0) & (xa >= 0) & (yb <= 2 * r) & (xb <= 2 * r)
-            rows = np.arange(m)[inside]
-            sm = sad[rows, ya[inside], xa[inside]]
-            sp = sad[rows, yb[inside], xb[inside]]
-            den = sm - 2 * s0[inside] + sp
-            f = np.where(den > 0, 0.5 * (sm - sp) / np.where(den > 0, den, 1.0), 0.0)
-            frac[inside, axis] = np.clip(f, -0.5, 0.5)
-        # Match top-left in prev = rt + cy (+frac); l = block top - match top.
+        match_tl = np.stack([rl[sel] + cx, rt[sel] + cy], axis=1)
+        block_tl = np.stack([left[sel], top[sel]], axis=1)
+        frac = subpixel_offsets(prev, cur, block_tl, match_tl, b)
+        # Match top-left in prev = rt + cy + frac; l = block top - match top.
         my = rt[sel] + cy + frac[:, 1]
         mx = rl[sel] + cx + frac[:, 0]
         motion[sel, 0] = left[sel] - mx

@@ -1,0 +1,78 @@
+import av
+import numpy as np
+import pytest
+
+from unjello.errors import InputError, OutputError
+from unjello.io.video import probe
+from unjello.pipeline import correct_video
+
+from ..clips import audio_packets, make_clip, video_pts
+
+
+def test_audio_pts_and_count_kept(tmp_path, scene):
+    src, dst = tmp_path / "in.mp4", tmp_path / "out.mp4"
+    make_clip(src, scene, n=10)
+    before = src.read_bytes()
+    traj = correct_video(src, dst, readout=1.0)
+    assert src.read_bytes() == before  # input untouched
+    assert len(traj) == 10
+    assert video_pts(dst) == video_pts(src)
+    a, b = audio_packets(src), audio_packets(dst)
+    assert len(a) > 5 and a == b  # bit-identical audio packets, same pts
+    assert not list(tmp_path.glob(".*unjello*"))  # no temp file left
+
+
+def test_variable_frame_rate_pts_kept(tmp_path, scene):
+    src, dst = tmp_path / "vfr.mp4", tmp_path / "out.mp4"
+    pts = [0, 512, 1536, 2048, 2560, 4096, 4608, 5120]
+    make_clip(src, scene, n=8, pts=pts, audio=False)
+    traj = correct_video(src, dst)
+    assert video_pts(dst) == video_pts(src) == pts
+    # Motion uses real timestamps: frame starts in nominal frame intervals.
+    starts = [f.start for f in traj.frames]
+    assert starts[2] - starts[1] == pytest.approx(2 * (starts[1] - starts[0]), rel=0.05)
+
+
+def test_rotation_and_colour_kept(tmp_path, scene):
+    src, dst = tmp_path / "rot.mp4", tmp_path / "out.mp4"
+    make_clip(src, scene, n=6, rotation=90, audio=False)
+    correct_video(src, dst, direction="top-bottom")
+    a, b = probe(src), probe(dst)
+    assert b.rotation == a.rotation == 90
+    assert (b.width, b.height) == (a.width, a.height)  # coded orientation kept
+    assert b.frames == a.frames
+
+
+def test_correction_improves_the_video(tmp_path, scene):
+    src, dst = tmp_path / "in.mp4", tmp_path / "out.mp4"
+    make_clip(src, scene, n=8, speed=7.0, audio=False)
+    traj = correct_video(src, dst, readout="33.333ms")
+    assert traj.timing.readout == pytest.approx(1.0, abs=1e-3)
+    v = np.array([f.velocity[:, 0].mean() for f in traj.frames])
+    assert np.allclose(v, 7.0, atol=0.3)
+
+
+def test_ten_bit_kept(tmp_path, scene):
+    src, dst = tmp_path / "in10.mp4", tmp_path / "out.mp4"
+    make_clip(src, scene, n=5, audio=False, pix_fmt="yuv420p10le")
+    correct_video(src, dst)
+    with av.open(str(dst)) as c:
+        assert c.streams.video[0].codec_context.pix_fmt == "yuv420p10le"
+
+
+def test_bad_inputs(tmp_path, scene):
+    txt = tmp_path / "fake.mp4"
+    txt.write_text("not a video")
+    with pytest.raises(InputError):
+        correct_video(txt, tmp_path / "o.mp4")
+    with pytest.raises(InputError):
+        correct_video(tmp_path / "missing.mp4", tmp_path / "o.mp4")
+    good = tmp_path / "good.mp4"
+    make_clip(good, scene, n=4, audio=False)
+    with pytest.raises(OutputError):
+        correct_video(good, good, overwrite=True)
+    existing = tmp_path / "exists.mp4"
+    existing.write_bytes(b"keep me")
+    with pytest.raises(OutputError):
+        correct_video(good, existing)
+    assert existing.read_bytes() == b"keep me"

@@ -1,0 +1,100 @@
+"""The command line: every bad input is one clear line and a non-zero exit."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from unjello.cli import main
+from unjello.io.frames import write_image
+
+from .clips import make_clip
+
+
+def run(*args, cwd=None):
+    """Run the real CLI in a subprocess, as a user would."""
+    return subprocess.run([sys.executable, "-m", "unjello", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def clip(tmp_path_factory, scene):
+    p = tmp_path_factory.mktemp("clip") / "in.mp4"
+    make_clip(p, scene, n=6)
+    return p
+
+
+def _clean_failure(res):
+    assert res.returncode != 0
+    assert "Traceback" not in res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, res.stderr
+    return lines[0]
+
+
+def test_missing_input(tmp_path):
+    line = _clean_failure(run("correct", tmp_path / "nope.mp4", "-o", tmp_path / "o.mp4"))
+    assert "no such file" in line
+
+
+def test_text_file_renamed_mp4(tmp_path):
+    fake = tmp_path / "fake.mp4"
+    fake.write_text("hello")
+    line = _clean_failure(run("correct", fake, "-o", tmp_path / "o.mp4"))
+    assert "not a video" in line
+    assert fake.read_text() == "hello"
+    assert not (tmp_path / "o.mp4").exists()
+
+
+@pytest.mark.parametrize("readout", ["0", "-1", "2", "abc"])
+def test_bad_readout(tmp_path, clip, readout):
+    line = _clean_failure(run("correct", clip, "-o", tmp_path / "o.mp4", "--readout", readout))
+    assert "readout" in line
+    assert not (tmp_path / "o.mp4").exists()
+
+
+def test_output_equals_input(clip):
+    before = clip.read_bytes()
+    line = _clean_failure(run("correct", clip, "-o", clip, "-y"))
+    assert "is the input" in line
+    assert clip.read_bytes() == before
+
+
+def test_existing_output_kept_without_y(tmp_path, clip):
+    out = tmp_path / "o.mp4"
+    out.write_bytes(b"precious")
+    line = _clean_failure(run("correct", clip, "-o", out))
+    assert "-y" in line
+    assert out.read_bytes() == b"precious"
+
+
+def test_empty_folder(tmp_path):
+    (tmp_path / "empty").mkdir()
+    line = _clean_failure(run("correct", tmp_path / "empty", "-o", tmp_path / "out"))
+    assert "no images" in line
+
+
+def test_simulate_correct_evaluate(tmp_path, scene):
+    src = tmp_path / "scene.png"
+    write_image(src, scene)
+    rs, gs = tmp_path / "rs.mp4", tmp_path / "gs.mp4"
+    res = run("simulate", src, "-o", rs, "--truth", gs, "--motion", "pan", "--readout", "0.8",
+              "--frames", "8", "--size", "192x144", "--speed", "6.5")
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "gs.mp4.motion.json").exists()
+    out, motion = tmp_path / "out.mp4", tmp_path / "motion.json"
+    res = run("correct", rs, "-o", out, "--readout", "0.8", "--motion-out", motion, "-q")
+    assert res.returncode == 0, res.stderr
+    res = run("evaluate", out, gs, "--motion", motion, "--json", "--margin", "8")
+    assert res.returncode == 0, res.stderr
+    report = json.loads(res.stdout)
+    mean = report["mean"]
+    assert mean["displacement_error"] * 8 <= mean["uncorrected_error"]
+    res_unc = run("evaluate", rs, gs, "--json", "--margin", "8")
+    assert mean["psnr"] > json.loads(res_unc.stdout)["mean"]["psnr"]
+
+
+def test_help_and_version(capsys):
+    main(["--version"])
+    assert "unjello" in capsys.readouterr().out
