@@ -52,8 +52,9 @@ def ssim(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0
         b, a, data_range=_range(truth), channel_axis=-1 if a.ndim == 3 else None))
 
 
-def displacement_error(estimate: FrameMotion | None, truth: FrameMotion) -> float:
-    """Mean over scanlines of the Euclidean error of the displacement (px).
+def displacement_error(estimate: FrameMotion | None, truth: FrameMotion,
+                       mask: np.ndarray | None = None) -> float:
+    """Mean Euclidean error of the displacement (px), per scanline or per pixel.
 
     Parameters
     ----------
@@ -61,12 +62,25 @@ def displacement_error(estimate: FrameMotion | None, truth: FrameMotion) -> floa
         Estimated motion; None means no correction (zero displacement).
     truth : FrameMotion
         True motion of the same frame.
+    mask : ndarray of bool, shape (h, w), optional
+        Pixels to score (e.g. the static background).
 
     Returns
     -------
     float
+        With per-scanline displacements only: the mean over scanlines. When either side
+        has a per-pixel field (dense methods, parallax scenes) or a mask is given: the
+        mean over (masked) pixels, a scanline model being the same for every pixel.
     """
-    est = np.zeros_like(truth.displacement) if estimate is None else estimate.displacement
-    if est.shape != truth.displacement.shape:
+    if estimate is not None and estimate.displacement.shape != truth.displacement.shape:
         raise ValueError("estimate and truth have different numbers of scanlines")
-    return float(np.linalg.norm(est - truth.displacement, axis=1).mean())
+    if mask is None and truth.field is None and (estimate is None or estimate.field is None):
+        est = np.zeros_like(truth.displacement) if estimate is None else estimate.displacement
+        return float(np.linalg.norm(est - truth.displacement, axis=1).mean())
+    w = truth.field.shape[1] if truth.field is not None else (
+        estimate.field.shape[1] if estimate is not None and estimate.field is not None
+        else mask.shape[1])  # type: ignore[union-attr]
+    true_f = truth.pixel_displacement(w)
+    est_f = np.zeros_like(true_f) if estimate is None else estimate.pixel_displacement(w)
+    err = np.linalg.norm(est_f - true_f, axis=-1)
+    return float(err[mask].mean() if mask is not None else err.mean())

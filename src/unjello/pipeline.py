@@ -22,15 +22,23 @@ import numpy as np
 from .errors import InputError, OutputError, SettingsError
 from .io.frames import list_frames, read_image, write_image
 from .io.video import EncodeOptions, VideoReader, VideoWriter
+from .motion.dense import DenseConfig, DenseMethod
 from .motion.paper import PaperConfig, PaperMethod
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
-from .warp import Fill, WarpMode, resample_displacement, warp_image
+from .warp import (
+    Fill,
+    WarpMode,
+    remap_field,
+    resample_displacement,
+    resample_field,
+    warp_image,
+)
 
 __all__ = ["CorrectionConfig", "Corrector", "correct_frames", "correct_video", "correct",
            "Progress", "METHODS"]
 
-METHODS = ("paper",)
+METHODS = ("dense", "paper")
 Progress = Callable[[int, int], None]
 
 
@@ -40,20 +48,25 @@ class CorrectionConfig:
 
     Parameters
     ----------
-    method : {'paper'}
-        Motion estimation method.
+    method : {'dense', 'paper'}
+        Motion estimation method: ``dense`` (per-pixel flow with a scanline-resolution
+        camera trajectory, :mod:`unjello.motion.dense`) or ``paper`` (Liang, Chang &
+        Chen 2008, :mod:`unjello.motion.paper`).
     warp : {'remap', 'splat'}
         Backward ``cv2.remap`` (fast) or the paper's forward splatting.
     fill : {'nearest', 'black'}
         Content of the area no scanline reaches.
     paper : PaperConfig
         Settings of the paper's stages.
+    dense : DenseConfig
+        Settings of the dense method.
     """
 
-    method: Literal["paper"] = "paper"
+    method: Literal["dense", "paper"] = "dense"
     warp: WarpMode = "remap"
     fill: Fill = "nearest"
     paper: PaperConfig = field(default_factory=PaperConfig)
+    dense: DenseConfig = field(default_factory=DenseConfig)
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -100,7 +113,9 @@ class Corrector:
         self.timing = timing
         self.config = config
         self.max_value = max_value
-        self._method = PaperMethod(timing, config.paper)
+        self._method: PaperMethod | DenseMethod = (
+            PaperMethod(timing, config.paper) if config.method == "paper"
+            else DenseMethod(timing, config.dense))
         self._held: deque[list[np.ndarray]] = deque()
 
     def push(self, planes: Sequence[np.ndarray], start: float
@@ -126,11 +141,11 @@ class Corrector:
         out = []
         for fm in motions:
             planes = self._held.popleft()
-            out.append((self.warp(planes, fm.displacement), fm))
+            out.append((self.warp(planes, fm), fm))
         return out
 
-    def warp(self, planes: Sequence[np.ndarray], displacement: np.ndarray) -> list[np.ndarray]:
-        """Warp every plane of a picture by a per-scanline displacement (top-bottom frame)."""
+    def warp(self, planes: Sequence[np.ndarray], motion: FrameMotion) -> list[np.ndarray]:
+        """Warp every plane of a picture by a frame's motion (per scanline or per pixel)."""
         d = self.timing.direction
         ref = to_top_bottom(planes[0], d)
         h, w = ref.shape[:2]
@@ -138,9 +153,13 @@ class Corrector:
         for plane in planes:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
-            disp = displacement if (ph, pw) == (h, w) else resample_displacement(
-                displacement, ph, pw / w, ph / h)
-            res, _ = warp_image(tb, disp, mode=self.config.warp, fill=self.config.fill)
+            if motion.field is not None:
+                res, _ = remap_field(tb, resample_field(motion.field, ph, pw),
+                                     fill=self.config.fill)
+            else:
+                disp = motion.displacement if (ph, pw) == (h, w) else resample_displacement(
+                    motion.displacement, ph, pw / w, ph / h)
+                res, _ = warp_image(tb, disp, mode=self.config.warp, fill=self.config.fill)
             out.append(from_top_bottom(res, d))
         return out
 

@@ -17,6 +17,9 @@ rows and columns. With a video source, the scene changes from frame to frame (th
 content of source frame ``n`` is used for every scanline of frame ``n``); only the
 camera's own motion is rolling-shutter distorted, and that is what the truth describes.
 
+Scenes: ``planar`` (one depth), ``parallax`` (a disc at half the depth, moving twice
+as far) and ``object`` (a disc moving on its own); with layers the truth is per pixel.
+
 Motions (all return ``D(t)`` in px, ``t`` in frame intervals, for a frame rate ``fps``):
 ``pan`` (constant velocity), ``stop`` (pan, then a sudden stop half way, the paper's
 Fig. 7), ``diagonal`` (pan in x and y), ``shake`` (hand shake: sinusoids of 1.5-9 Hz),
@@ -40,7 +43,8 @@ from .errors import InputError, SettingsError
 from .timing import SensorTiming, from_top_bottom, to_top_bottom
 from .trajectory import FrameMotion
 
-__all__ = ["Motion", "MOTIONS", "SimulatedFrame", "simulate", "motion_from_spec"]
+__all__ = ["Motion", "MOTIONS", "SCENES", "Layer", "SimulatedFrame", "simulate",
+           "motion_from_spec", "scene_layers"]
 
 MOTIONS = ("pan", "stop", "diagonal", "shake", "jello")
 
@@ -145,13 +149,110 @@ def motion_from_spec(spec: str, fps: float = 30.0, speed: float = 8.0, amplitude
     return Motion("spline", fps, knots=(tuple(t), tuple(dx), tuple(dy)))
 
 
+SCENES = ("planar", "parallax", "object")
+
+
+@dataclass(frozen=True)
+class Layer:
+    """A foreground layer composited over the scene, with its own image motion.
+
+    Parameters
+    ----------
+    image : ndarray of shape (hl, wl[, C])
+        Layer pixels (same channels as the scene).
+    alpha : ndarray of shape (hl, wl)
+        Opacity in ``[0, 1]``.
+    position : tuple of float
+        ``(x, y)`` of the layer's top-left in the (top-bottom) output frame at ``D = 0``.
+    motion : callable
+        ``D_layer(t)``, as :class:`Motion`: pixel ``q`` of the layer appears at
+        ``position + q + D_layer(t)``. A layer nearer the camera than the scene moves
+        more (parallax); an object moving on its own adds its own motion.
+    """
+
+    image: np.ndarray
+    alpha: np.ndarray
+    position: tuple[float, float]
+    motion: Callable[[np.ndarray], np.ndarray]
+
+
+def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np.ndarray],
+                 size: tuple[int, int]) -> list[Layer]:
+    """Foreground layers of the built-in scenes, in top-bottom orientation.
+
+    Parameters
+    ----------
+    kind : {'planar', 'parallax', 'object'}
+        ``planar``: none. ``parallax``: a second depth, a textured disc covering a third
+        of the frame, twice as near as the background (moves 2x). ``object``: a disc
+        moving on its own at (3.5, 1.2) px per frame over the static, panned scene.
+    image : ndarray
+        Texture source for the layer (a different image from the background is best).
+    camera : callable
+        The camera's (background) motion ``D(t)``.
+    size : tuple of int
+        ``(width, height)`` of the output frame (top-bottom orientation).
+
+    Returns
+    -------
+    list of Layer
+    """
+    if kind == "planar":
+        return []
+    w, h = size
+    r = int(min(w, h) * 0.3)
+    tex = cv2.resize(image, (2 * r, 2 * r), interpolation=cv2.INTER_AREA)
+    yy, xx = np.mgrid[0:2 * r, 0:2 * r]
+    alpha = np.clip(r - np.hypot(xx - r + 0.5, yy - r + 0.5) + 0.5, 0, 1).astype(np.float32)
+    pos = (w / 2 - r, h / 2 - r)
+    if kind == "parallax":
+        return [Layer(tex, alpha, pos, lambda t: 2.0 * camera(t))]
+    if kind == "object":
+        own = np.array([3.5, 1.2])
+        return [Layer(tex, alpha, pos,
+                      lambda t: camera(t) + np.asarray(t)[..., None] * own)]
+    raise SettingsError(f"unknown scene {kind!r}; use one of {', '.join(SCENES)}")
+
+
 @dataclass(frozen=True)
 class SimulatedFrame:
-    """One rendered frame: rolling-shutter image, global-shutter truth, true motion."""
+    """One rendered frame: rolling-shutter image, global-shutter truth, true motion.
+
+    ``layer`` marks, per pixel of the rolling-shutter frame, the layer it shows
+    (0: the scene, 1..: the foreground layers).
+    """
 
     rolling: np.ndarray
     truth: np.ndarray
     motion: FrameMotion
+    layer: np.ndarray | None = None
+
+
+def _render_layer(layer: Layer, disp: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Layer colour and alpha in the output frame for per-row displacements ``disp``."""
+    h = disp.shape[0]
+    map_x = (np.arange(width, dtype=np.float32)[None, :]
+             - (layer.position[0] + disp[:, 0])[:, None].astype(np.float32))
+    map_y = np.broadcast_to((np.arange(h) - layer.position[1] - disp[:, 1])[:, None]
+                            .astype(np.float32), (h, width))
+    map_y = np.ascontiguousarray(map_y)
+    img = cv2.remap(layer.image.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    a = cv2.remap(layer.alpha.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
+                  borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return img, a
+
+
+def _composite(base: np.ndarray, layers: list[Layer], times: np.ndarray, width: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    out = base
+    top = np.zeros(base.shape[:2], np.int32)
+    for i, layer in enumerate(layers, start=1):
+        img, a = _render_layer(layer, layer.motion(times), width)
+        aa = a[..., None] if out.ndim == 3 else a
+        out = aa * img + (1 - aa) * out
+        top[a > 0.5] = i
+    return out, top
 
 
 def _render(scene: np.ndarray, origin: np.ndarray, disp: np.ndarray, width: int) -> np.ndarray:
@@ -174,6 +275,8 @@ def simulate(
     size: tuple[int, int] | None = None,
     exposure: float = 0.0,
     frame_starts: np.ndarray | None = None,
+    layers: str | list[Layer] = "planar",
+    layer_image: np.ndarray | None = None,
 ) -> Iterator[SimulatedFrame]:
     """Render a rolling-shutter clip and its global-shutter truth.
 
@@ -196,6 +299,11 @@ def simulate(
         Exposure time in frame intervals (motion blur), 0 for none.
     frame_starts : ndarray of shape (n_frames,), optional
         Start time of each frame (variable frame rate); default ``0, 1, 2, ...``.
+    layers : {'planar', 'parallax', 'object'} or list of Layer
+        Foreground layers (see :func:`scene_layers`); with layers the truth carries a
+        per-pixel displacement ``field``.
+    layer_image : ndarray, optional
+        Texture of the built-in layers (default: the scene flipped upside down).
 
     Yields
     ------
@@ -234,26 +342,50 @@ def simulate(
     still = None if callable(scene) else scene_tb(0)
     dtype = first.dtype
     n_sub = max(1, int(np.ceil(exposure * oh / 4))) if exposure > 0 else 1
+    if isinstance(layers, str):
+        tex = layer_image if layer_image is not None else first[::-1]
+        tex = to_top_bottom(tex, timing.direction).astype(np.float32)
+        layer_list = scene_layers(layers, tex, motion, (ow, oh))
+    else:
+        layer_list = list(layers)
     for n in range(n_frames):
         img = still if still is not None else scene_tb(n)
         t_rows = timing.row_times(oh, starts[n])
+        top = None
         if exposure > 0:
-            acc = np.zeros(img.shape[:0] + (oh, ow) + img.shape[2:], np.float32)
+            acc = np.zeros((oh, ow) + img.shape[2:], np.float32)
             for j in range(n_sub):
-                acc += _render(img, origin, motion(t_rows - exposure * (j + 0.5) / n_sub), ow)
+                tj = t_rows - exposure * (j + 0.5) / n_sub
+                frame_j, top = _composite(_render(img, origin, motion(tj), ow), layer_list,
+                                          tj, ow)
+                acc += frame_j
             rs = acc / n_sub
+            _, top = _composite(_render(img, origin, motion(t_rows), ow), layer_list, t_rows,
+                                ow)
         else:
-            rs = _render(img, origin, motion(t_rows), ow)
+            rs, top = _composite(_render(img, origin, motion(t_rows), ow), layer_list,
+                                 t_rows, ow)
         t_ref = timing.reference_time(oh, starts[n])
+        ref_rows = np.full(oh, t_ref)
         d_ref = motion(np.array([t_ref]))[0]
-        gs = _render(img, origin, np.tile(d_ref, (oh, 1)), ow)
+        gs, _ = _composite(_render(img, origin, np.tile(d_ref, (oh, 1)), ow), layer_list,
+                           ref_rows, ow)
         eps = 1e-3
         vel = (motion(t_rows + eps) - motion(t_rows - eps)) / (2 * eps)
-        fm = FrameMotion(n, float(starts[n]), motion(t_rows) - d_ref, vel)
+        disp = motion(t_rows) - d_ref
+        field = None
+        if layer_list:
+            field = np.repeat(disp[:, None, :], ow, axis=1)
+            for i, layer in enumerate(layer_list, start=1):
+                ld = layer.motion(t_rows) - layer.motion(np.array([t_ref]))[0]
+                sel = top == i
+                field[sel] = np.broadcast_to(ld[:, None, :], field.shape)[sel]
+        fm = FrameMotion(n, float(starts[n]), disp, vel, field=field)
         yield SimulatedFrame(
             rolling=_to_dtype(from_top_bottom(rs, timing.direction), dtype),
             truth=_to_dtype(from_top_bottom(gs, timing.direction), dtype),
             motion=fm,
+            layer=from_top_bottom(top, timing.direction) if layer_list else None,
         )
 
 

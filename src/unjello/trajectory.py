@@ -51,6 +51,10 @@ class FrameMotion:
         False when the estimate was bridged over a failure (see ``note``).
     note : str
         Why the estimate is not a direct measurement, if so.
+    field : ndarray of shape (h, w, 2), optional
+        Per-pixel displacement for dense methods (``p = s - field[s]``); when present it
+        is what the warper applies, and ``displacement`` is its per-row median. It is
+        not stored in the JSON form (the per-scanline summary is).
     """
 
     index: int
@@ -59,6 +63,14 @@ class FrameMotion:
     velocity: np.ndarray
     ok: bool = True
     note: str = ""
+    field: np.ndarray | None = None
+
+    def pixel_displacement(self, width: int) -> np.ndarray:
+        """Return the per-pixel displacement, shape ``(h, width, 2)``."""
+        if self.field is not None:
+            return self.field
+        return np.broadcast_to(self.displacement[:, None, :],
+                               (self.displacement.shape[0], width, 2))
 
     def to_dict(self) -> dict:
         """Return a JSON-serialisable dict of this frame."""

@@ -30,7 +30,7 @@ import numpy as np
 from .timing import SensorTiming
 
 __all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
-           "remap", "warp_image", "fill_holes"]
+           "remap", "warp_image", "fill_holes", "remap_field", "resample_field"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -276,3 +276,65 @@ def warp_image(image: np.ndarray, displacement: np.ndarray, *, mode: WarpMode = 
     if mode == "splat":
         return splat(image, displacement, fill)
     return remap(image, displacement, fill)
+
+
+def resample_field(field: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Per-pixel displacement for a plane of another resolution (e.g. 4:2:0 chroma)."""
+    h, w = field.shape[:2]
+    if (h, w) == (height, width):
+        return field
+    out = cv2.resize(field, (width, height), interpolation=cv2.INTER_LINEAR)
+    return out * np.array([width / w, height / h], dtype=np.float32)
+
+
+def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
+
+    The source ``s`` of every output pixel ``p`` is the fixed point of
+    ``s = p + field(s)``, found by iterating from ``s = p + field(p)`` (the field is
+    sampled bilinearly at the current estimate). It converges where the field changes
+    by less than one pixel per pixel, i.e. wherever the warp does not fold.
+
+    Parameters
+    ----------
+    field : ndarray of shape (h, w, 2)
+        Per-pixel ``(dx, dy)``.
+    iterations : int
+        Fixed-point iterations.
+
+    Returns
+    -------
+    map_x, map_y : ndarray of shape (h, w), float32
+    """
+    h, w = field.shape[:2]
+    f = field.astype(np.float32)
+    gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
+    gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    mx, my = gx + f[..., 0], gy + f[..., 1]
+    for _ in range(iterations):
+        fs = cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        mx, my = gx + fs[..., 0], gy + fs[..., 1]
+    return mx, my
+
+
+def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest"
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Dense backward warp: every pixel moved by its own eq. 26 displacement.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+    field : ndarray of shape (h, w, 2)
+        ``p = s - field(s)``.
+    fill : {'nearest', 'black'}
+
+    Returns
+    -------
+    out, valid : as :func:`remap`.
+    """
+    h, w = image.shape[:2]
+    mx, my = field_maps(resample_field(field, h, w))
+    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
+    valid = (mx >= -0.5) & (mx <= w - 0.5) & (my >= -0.5) & (my <= h - 0.5)
+    return out, valid
