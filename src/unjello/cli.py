@@ -77,8 +77,10 @@ def cli() -> None:
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               help="Output video, or folder for a folder input.")
 @_timing_options
-@click.option("--method", type=click.Choice(["paper"]), default="paper", show_default=True,
-              help="Motion model: 'paper' = Liang, Chang & Chen 2008.")
+@click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
+              show_default=True,
+              help="Motion model: 'dense' = per-pixel flow with a scanline-resolution camera "
+                   "trajectory; 'paper' = Liang, Chang & Chen 2008.")
 @click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
               show_default=True, help="Backward remap (fast) or the paper's forward splat.")
 @click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",

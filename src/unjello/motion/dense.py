@@ -70,18 +70,25 @@ class DenseConfig:
         Frame pairs on each side of a frame used to solve its camera trajectory.
     consistency : float
         Forward-backward flow disagreement (px) above which a pixel is unreliable.
+    finest_scale : int, optional
+        DIS finest pyramid level (0 = full resolution).
+    fill_sigma : float
+        Where the flow is unreliable, the residual motion is the Gaussian-weighted
+        average (this sigma, px) of the reliable residuals around it.
     """
 
     flow_preset: str = "medium"
     flow_width: int = 960
     grid: int = 64
-    smoothness: float = 0.0001
+    smoothness: float = 0.01
     window: int = 2
     consistency: float = 1.0
+    finest_scale: int | None = None
+    fill_sigma: float = 12.0
 
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
-                 max_width: int = 960) -> np.ndarray:
+                 max_width: int = 960, finest_scale: int | None = None) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
     Parameters
@@ -92,6 +99,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         DIS preset.
     max_width : int
         Compute on frames downscaled to at most this width.
+    finest_scale : int, optional
+        DIS finest pyramid level (0 = full resolution); default the preset's.
 
     Returns
     -------
@@ -107,6 +116,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         a8 = cv2.resize(a8, size, interpolation=cv2.INTER_AREA)
         b8 = cv2.resize(b8, size, interpolation=cv2.INTER_AREA)
     dis = cv2.DISOpticalFlow_create(_PRESETS[preset])
+    if finest_scale is not None:
+        dis.setFinestScale(finest_scale)
     flow = dis.calc(a8, b8, None)
     if scale < 1.0:
         sx, sy = w / a8.shape[1], h / a8.shape[0]
@@ -137,67 +148,100 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
-                            weight: np.ndarray, step: float, smoothness: float
-                            ) -> tuple[float, np.ndarray]:
-    """Solve ``c(t_a) - c(t_b) = delta`` for a sampled trajectory ``c`` (least squares).
+def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
+                            delta: np.ndarray, weight: np.ndarray, step: float,
+                            smoothness: float, row_knots: int = 16
+                            ) -> tuple[float, np.ndarray, np.ndarray]:
+    """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
+
+    ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
+    depends on the row only and is shared by all frame pairs: it absorbs what varies
+    along the frame but not over time (perspective, zoom, a tilted ground plane), so
+    that ``c`` changes within a frame only where the frames disagree over time (shake,
+    vibration). With a single pair the two cannot be told apart, and the penalty on the
+    acceleration of ``c`` gives the spatial explanation: constant velocity per row.
 
     Parameters
     ----------
     t_a, t_b : ndarray of shape (m,)
-        Times of the two ends of each equation.
+        Times of the two ends of each equation (later frame, earlier frame).
+    rows : ndarray of shape (m,)
+        Row of each equation in the later frame, as a fraction of the height.
     delta : ndarray of shape (m, 2)
-        Observed displacement ``c(t_a) - c(t_b)``.
+        Observed displacement of the row's content from ``t_b`` to ``t_a``.
     weight : ndarray of shape (m,)
         Confidence of each equation.
     step : float
-        Grid spacing in time.
+        Grid spacing of ``c`` in time.
     smoothness : float
-        Weight of the second-difference penalty (per grid sample, scaled by the step so
-        that it does not depend on the grid).
+        Weight of the penalty on the acceleration of ``c``.
+    row_knots : int
+        Knots of ``u`` over the frame height (linear in between).
 
     Returns
     -------
     t0 : float
         Time of the first grid sample.
     c : ndarray of shape (n, 2)
-        Trajectory samples at ``t0 + k * step``, with zero mean.
+        Trajectory samples at ``t0 + k * step``, zero mean.
+    u : ndarray of shape (row_knots, 2)
+        Row velocity at ``rows = linspace(0, 1, row_knots)``.
 
     Examples
     --------
     A constant velocity of 4 px per unit time:
 
-    >>> ta = np.linspace(1, 2, 50); tb = ta - 1.0
-    >>> t0, c = solve_camera_trajectory(ta, tb, np.tile([4.0, 0.0], (50, 1)),
-    ...                                 np.ones(50), 0.05, 0.05)
-    >>> bool(np.allclose(np.diff(c[:, 0]) / 0.05, 4.0, atol=1e-3))
+    >>> ta = np.linspace(1, 2, 50); tb = ta - 1.0; y = np.linspace(0, 1, 50)
+    >>> t0, c, u = solve_camera_trajectory(ta, tb, y, np.tile([4.0, 0.0], (50, 1)),
+    ...                                    np.ones(50), 0.05, 0.05)
+    >>> bool(np.allclose(np.diff(c[:, 0]) / 0.05 + u[0, 0], 4.0, atol=1e-2))
     True
     """
     t0 = float(min(t_a.min(), t_b.min())) - step
     t1 = float(max(t_a.max(), t_b.max())) + step
     n = int(np.ceil((t1 - t0) / step)) + 2
+    k = row_knots
     ia, wa0, wa1 = _interp_matrix(t_a, t0, step, n)
     ib, wb0, wb1 = _interp_matrix(t_b, t0, step, n)
+    ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
     m = t_a.size
-    rows = np.repeat(np.arange(m), 4)
-    cols = np.stack([ia, ia + 1, ib, ib + 1], axis=1).ravel()
-    vals = np.stack([wa0, wa1, -wb0, -wb1], axis=1).ravel()
-    a = np.zeros((m, n))
-    np.add.at(a, (rows, cols), vals)
+    gap = t_a - t_b
+    a = np.zeros((m, n + k))
+    r = np.arange(m)
+    for cols, vals in ((ia, wa0), (ia + 1, wa1), (ib, -wb0), (ib + 1, -wb1),
+                       (n + ir, gap * wr0), (n + ir + 1, gap * wr1)):
+        np.add.at(a, (r, cols), vals)
     sw = np.sqrt(weight)[:, None]
     aw = a * sw
     ata = aw.T @ aw
     atb = aw.T @ (delta * sw)
-    # Second-difference penalty, in units of acceleration (independent of the step).
+    scale = weight.sum()
+    # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
     d2 = np.zeros((n - 2, n))
-    k = np.arange(n - 2)
-    d2[k, k], d2[k, k + 1], d2[k, k + 2] = 1.0, -2.0, 1.0
-    # sum_k (d2 c_k / step^2)^2 * step approximates the integral of the squared acceleration.
-    lam = smoothness * weight.sum() / step**3
-    ata += lam * (d2.T @ d2)
-    ata += 1e-9 * np.eye(n) * (np.trace(ata) / n + 1e-12)
-    c = np.linalg.solve(ata, atb)
-    return t0, c - c.mean(axis=0)
+    j = np.arange(n - 2)
+    d2[j, j], d2[j, j + 1], d2[j, j + 2] = 1.0, -2.0, 1.0
+    ata[:n, :n] += smoothness * scale / step**3 * (d2.T @ d2)
+    # u: small roughness and ridge penalties (a constant velocity belongs to c).
+    e2 = np.zeros((k - 2, k))
+    j = np.arange(k - 2)
+    e2[j, j], e2[j, j + 1], e2[j, j + 2] = 1.0, -2.0, 1.0
+    ata[n:, n:] += 1e-3 * scale * (e2.T @ e2) + 1e-4 * scale * np.eye(k)
+    ata += 1e-9 * np.eye(n + k) * (np.trace(ata) / (n + k) + 1e-12)
+    sol = np.linalg.solve(ata, atb)
+    c, u = sol[:n], sol[n:]
+    return t0, c - c.mean(axis=0), u
+
+
+def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
+    """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones."""
+    if ok.all() or not ok.any() or sigma <= 0:
+        return resid if ok.any() else np.zeros_like(resid)
+    w = cv2.GaussianBlur(ok.astype(np.float32), (0, 0), sigma)
+    num = cv2.GaussianBlur(resid * ok[..., None], (0, 0), sigma)
+    avg = num / np.maximum(w, 1e-3)[..., None]
+    out = resid.copy()
+    out[~ok] = np.where(w[~ok, None] > 1e-3, avg[~ok], 0.0)
+    return out
 
 
 @dataclass
@@ -237,8 +281,10 @@ class DenseMethod:
         if self._frames:
             prev = self._frames[-1]
             cfg = self.config
-            cur.bwd = optical_flow(cur.image, prev.image, cfg.flow_preset, cfg.flow_width)
-            prev.fwd = optical_flow(prev.image, cur.image, cfg.flow_preset, cfg.flow_width)
+            cur.bwd = optical_flow(cur.image, prev.image, cfg.flow_preset, cfg.flow_width,
+                                   cfg.finest_scale)
+            prev.fwd = optical_flow(prev.image, cur.image, cfg.flow_preset, cfg.flow_width,
+                                    cfg.finest_scale)
             cur.bwd_ok = _consistent(cur.bwd, prev.fwd, cfg.consistency)
             prev.fwd_ok = _consistent(prev.fwd, cur.bwd, cfg.consistency)
             cur.rows = self._row_equations(prev, cur)
@@ -266,7 +312,7 @@ class DenseMethod:
         delta = -med
         wgt = count / w
         keep = use & np.isfinite(t_b)
-        return t_a[keep], t_b[keep], delta[keep], wgt[keep]
+        return t_a[keep], t_b[keep], y[keep] / max(h - 1, 1), delta[keep], wgt[keep]
 
     def _ready(self, final: bool) -> list[FrameMotion]:
         out = []
@@ -286,9 +332,10 @@ class DenseMethod:
                and f.index - 1 >= n - self.config.window and len(f.rows[0])]
         if not eqs:
             return None
-        t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(4))
+        t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
         step = self.timing.readout / self.config.grid
-        t0, c = solve_camera_trajectory(t_a, t_b, delta, wgt, step, self.config.smoothness)
+        t0, c, _ = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step,
+                                           self.config.smoothness)
         return t0, step, c
 
     def _emit(self, fr: _Frame) -> FrameMotion:
@@ -346,8 +393,10 @@ class DenseMethod:
             lin = ((t_ref - t_s) / (t_o - t_s))[..., None] * r
             field_resid[ok] = lin[ok]
             fallback &= ~ok
+        field_resid = _fill_unreliable(field_resid.astype(np.float32), ~fallback,
+                                       self.config.fill_sigma)
         for k in range(2):
-            field_resid[..., k] = cv2.medianBlur(field_resid[..., k].astype(np.float32), 5)
+            field_resid[..., k] = cv2.medianBlur(field_resid[..., k], 5)
         field = (cam_disp[:, None, :] - field_resid).astype(np.float32)
         disp = np.median(field, axis=1).astype(np.float64)
         frac = float(fallback.mean())
