@@ -326,7 +326,7 @@ class DenseMethod:
                 self._frames.popleft()
         return out
 
-    def _camera(self, n: int) -> tuple[float, float, np.ndarray] | None:
+    def _camera(self, n: int) -> tuple[float, float, np.ndarray, np.ndarray] | None:
         eqs = [f.rows for f in self._frames
                if f.rows is not None and abs(f.index - n) <= self.config.window
                and f.index - 1 >= n - self.config.window and len(f.rows[0])]
@@ -334,9 +334,9 @@ class DenseMethod:
             return None
         t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
         step = self.timing.readout / self.config.grid
-        t0, c, _ = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step,
+        t0, c, u = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step,
                                            self.config.smoothness)
-        return t0, step, c
+        return t0, step, c, u
 
     def _emit(self, fr: _Frame) -> FrameMotion:
         h, w = fr.image.shape
@@ -348,7 +348,7 @@ class DenseMethod:
             z = np.zeros((h, 2))
             return FrameMotion(fr.index, fr.start, z, z, ok=False,
                                note="no reliable motion: frame left as is")
-        t0, step, c = cam
+        t0, step, c, u = cam
         grid_t = t0 + step * np.arange(c.shape[0])
 
         def c_at(t: np.ndarray) -> np.ndarray:
@@ -358,6 +358,10 @@ class DenseMethod:
         cam_rows = c_at(t_rows)
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
         velocity = np.gradient(cam_rows, t_rows, axis=0) if h > 1 else np.zeros((h, 2))
+        knots = np.linspace(0, 1, u.shape[0])
+        frac_rows = np.arange(h) / max(h - 1, 1)
+        velocity = velocity + np.stack([np.interp(frac_rows, knots, u[:, k]) for k in range(2)],
+                                       axis=1)
         # Per-pixel residual of the flow on each side, relative to the camera.
         ys = np.arange(h, dtype=np.float64)[:, None]
         xs = np.arange(w, dtype=np.float64)[None, :]
