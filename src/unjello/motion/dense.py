@@ -82,7 +82,7 @@ class DenseConfig:
     grid: int = 64
     smoothness: float = 0.01
     window: int = 2
-    consistency: float = 1.0
+    consistency: float = 10.0
     finest_scale: int | None = None
     fill_sigma: float = 12.0
 
@@ -232,6 +232,35 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
     return t0, c - c.mean(axis=0), u
 
 
+def _shorth(values: np.ndarray) -> np.ndarray:
+    """Centre of the densest half of each row's values (NaN = missing), per channel.
+
+    The midpoint of the shortest interval holding half the samples (the "shorth") follows
+    the dominant motion of a row even when an independently moving object covers much of
+    it, where a median would be pulled towards the object.
+
+    Parameters
+    ----------
+    values : ndarray of shape (rows, n, c)
+
+    Returns
+    -------
+    ndarray of shape (rows, c)
+    """
+    srt = np.sort(values, axis=1)  # NaN last
+    valid = np.isfinite(srt).sum(axis=1)  # (rows, c)
+    rows, n, c = srt.shape
+    half = np.maximum(valid // 2, 1)
+    idx = np.arange(n)[None, :, None]
+    end = idx + half[:, None, :]
+    ends = np.take_along_axis(srt, np.minimum(end, n - 1), axis=1)
+    width = np.where(end < valid[:, None, :], ends - srt, np.inf)
+    best = np.argmin(width, axis=1)  # (rows, c)
+    lo = np.take_along_axis(srt, best[:, None, :], axis=1)[:, 0]
+    hi = np.take_along_axis(srt, np.minimum(best + half, n - 1)[:, None, :], axis=1)[:, 0]
+    return 0.5 * (lo + hi)
+
+
 def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
     """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones."""
     if ok.all() or not ok.any() or sigma <= 0:
@@ -305,7 +334,7 @@ class DenseMethod:
         use = count >= max(8, 0.15 * w)
         med = np.full((h, 2), np.nan)
         if use.any():
-            med[use] = np.nanmedian(flow[use], axis=1)
+            med[use] = _shorth(flow[use])
         y = np.arange(h, dtype=np.float64)
         t_a = cur.start + rho * y / h
         t_b = prev.start + rho * (y + med[:, 1]) / h
