@@ -98,3 +98,24 @@ def test_simulate_correct_evaluate(tmp_path, scene):
 def test_help_and_version(capsys):
     main(["--version"])
     assert "unjello" in capsys.readouterr().out
+
+
+def test_readout_command(shared_data):
+    res = run("readout", shared_data / "readout" / "led_1khz_nikon1j1_1080p30.png",
+              "--frequency", "1000", "--fps", "30")
+    assert res.returncode == 0, res.stderr
+    assert "15.7" in res.stdout and "--readout 0.47" in res.stdout
+
+
+def test_correct_with_auto_readout(tmp_path, scene):
+    src = tmp_path / "scene.png"
+    write_image(src, scene)
+    rs, gs = tmp_path / "rs.mp4", tmp_path / "gs.mp4"
+    res = run("simulate", src, "-o", rs, "--truth", gs, "--motion", "shake", "--readout",
+              "0.6", "--frames", "12", "--size", "320x240")
+    assert res.returncode == 0, res.stderr
+    out, motion = tmp_path / "out.mp4", tmp_path / "m.json"
+    res = run("correct", rs, "-o", out, "--readout", "auto", "--motion-out", motion, "-q")
+    assert res.returncode == 0, res.stderr
+    assert "readout estimated" in res.stderr
+    assert abs(json.loads(motion.read_text())["readout"] - 0.6) <= 0.05

@@ -53,8 +53,9 @@ def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | 
 
 def _readout_option(f: Callable) -> Callable:
     return click.option("--readout", default="1.0", show_default=True,
-                        help="Readout time: fraction of the frame interval (0 < r <= 1) "
-                             "or milliseconds, e.g. 15.7ms.")(f)
+                        help="Readout time: fraction of the frame interval (0 < r <= 1), "
+                             "milliseconds (15.7ms), or 'auto' (estimated from the "
+                             "motion).")(f)
 
 
 def _timing_options(f: Callable) -> Callable:
@@ -104,19 +105,76 @@ def correct(input: Path, output: Path, readout: str, direction: str, reference: 
 
     config = CorrectionConfig(method=method, warp=warp, fill=fill,  # type: ignore[arg-type]
                               paper=PaperConfig(BlockMatchConfig(search=search)))
-    if not input.is_dir():
+    if readout.strip().lower() != "auto" and not input.is_dir():
         parse_readout(readout, 30.0)  # validate early, before opening anything
     with _progress("correcting", quiet) as progress:
         traj = correct_video(input, output, readout=readout, direction=direction,
                              reference=reference, config=config,
                              encode=EncodeOptions(codec, crf, preset), overwrite=overwrite,
-                             motion_out=motion_out, progress=progress)
+                             motion_out=motion_out, progress=progress,
+                             log=lambda m: click.echo(m, err=True))
     bad = sum(not f.ok for f in traj.frames)
     if bad:
         click.echo(f"warning: motion bridged over on {bad} frame(s)", err=True)
     if not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g})",
                    err=True)
+
+
+@cli.command()
+@click.argument("image", type=click.Path(path_type=Path))
+@click.option("--frequency", type=click.FloatRange(min=0, min_open=True), required=True,
+              help="Flicker frequency in Hz (LED drive frequency, or 100/120 for mains).")
+@click.option("--fps", type=click.FloatRange(min=0, min_open=True),
+              help="Frame rate, to also print the readout as a fraction of the frame interval.")
+@click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
+              show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def readout(image: Path, frequency: float, fps: float | None, direction: str,
+            as_json: bool) -> None:
+    """Measure the readout time from one frame of a light flickering at a known frequency."""
+    from .io.frames import read_image
+    from .readout import readout_from_flicker
+
+    if not image.exists():
+        raise UnjelloError(f"{image}: no such file")
+    r = readout_from_flicker(read_image(image), frequency, direction=direction)
+    if as_json:
+        click.echo(json.dumps({"milliseconds": r.milliseconds, "period_lines": r.period_lines,
+                               "lines": r.lines, "contrast": r.contrast,
+                               "ratio": r.ratio(fps) if fps else None}))
+        return
+    line = (f"readout {r.milliseconds:.3f} ms ({r.lines} lines, band period "
+            f"{r.period_lines:.2f} lines at {frequency:g} Hz)")
+    if fps:
+        line += f"; at {fps:g} fps: --readout {r.ratio(fps):.3f}"
+    click.echo(line)
+
+
+@cli.command("estimate-readout")
+@click.argument("input", type=click.Path(path_type=Path))
+@click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
+              show_default=True)
+@click.option("--frames", type=click.IntRange(3, 10000), default=60, show_default=True,
+              help="Frames analysed from the start.")
+@click.option("--json", "as_json", is_flag=True)
+def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) -> None:
+    """Estimate the readout ratio of INPUT (video or folder) from its motion."""
+    from .pipeline import estimate_readout_file
+
+    est = estimate_readout_file(input, direction=direction, max_frames=frames)
+    if as_json:
+        click.echo(json.dumps({"readout": est.readout, "confidence": est.confidence,
+                               "reliable": est.reliable,
+                               "candidates": est.candidates.tolist(),
+                               "costs": est.costs.tolist()}))
+        return
+    if est.reliable:
+        click.echo(f"readout {est.readout:.3f} of the frame interval "
+                   f"(confidence {est.confidence:.2f})")
+    else:
+        click.echo(f"readout unknown: the motion is too weak or too uniform to tell "
+                   f"(confidence {est.confidence:.2f}); default {est.readout:g}")
 
 
 @cli.command()

@@ -33,7 +33,7 @@ def _range(a: np.ndarray) -> float:
 
 
 def psnr(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0) -> float:
-    """Peak signal-to-noise ratio in dB (alpha channels are ignored).
+    """Peak signal-to-noise ratio in dB (alpha ignored; identical images give 100 dB).
 
     Examples
     --------
@@ -42,6 +42,8 @@ def psnr(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0
     48.13
     """
     a, b = crop_margin(_rgb(image), margin), crop_margin(_rgb(truth), margin)
+    if np.array_equal(a, b):
+        return 100.0  # identical images: reported as 100 dB instead of infinity
     return float(peak_signal_noise_ratio(b, a, data_range=_range(truth)))
 
 

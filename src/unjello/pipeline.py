@@ -24,6 +24,7 @@ from .io.frames import list_frames, read_image, write_image
 from .io.video import EncodeOptions, VideoReader, VideoWriter
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.paper import PaperConfig, PaperMethod
+from .readout import ReadoutEstimate, estimate_readout
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
 from .warp import (
@@ -36,7 +37,7 @@ from .warp import (
 )
 
 __all__ = ["CorrectionConfig", "Corrector", "correct_frames", "correct_video", "correct",
-           "Progress", "METHODS"]
+           "Progress", "METHODS", "estimate_readout_file"]
 
 METHODS = ("dense", "paper")
 Progress = Callable[[int, int], None]
@@ -241,6 +242,82 @@ def _check_paths(src: Path, dst: Path, overwrite: bool) -> None:
         raise OutputError(f"{parent}: output folder is not writable")
 
 
+def _frames_for_estimate(src: Path, max_frames: int) -> tuple[list[np.ndarray], list[float],
+                                                              float | None]:
+    """First frames (luma or image) and their start times, for readout estimation."""
+    frames: list[np.ndarray] = []
+    starts: list[float] = []
+    if src.is_dir():
+        for i, f in enumerate(list_frames(src)[:max_frames]):
+            frames.append(read_image(f))
+            starts.append(float(i))
+        return frames, starts, None
+    with VideoReader(src) as reader:
+        info = reader.info
+        tb = float(info.time_base)
+        first = None
+        for kind, item, pts in reader.packets():
+            if kind != "video":
+                continue
+            planes = item  # type: ignore[assignment]
+            luma = planes[0]  # type: ignore[index]
+            if info.bit_depth > 8:
+                luma = (luma >> 2).astype(np.uint8)
+            if first is None and pts is not None:
+                first = pts
+            starts.append((pts - first) * tb * info.fps if pts is not None and first is not None
+                          else float(len(frames)))
+            frames.append(luma)
+            if len(frames) >= max_frames:
+                break
+        return frames, starts, info.fps
+
+
+def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
+                          max_frames: int = 60, fallback: float = 1.0) -> ReadoutEstimate:
+    """Estimate the readout ratio of a video or image folder from its motion.
+
+    Parameters
+    ----------
+    src : path-like
+        Video file or folder of frames.
+    direction : str
+        Scan direction.
+    max_frames : int
+        Frames analysed from the start.
+    fallback : float
+        Readout returned when the motion cannot tell.
+
+    Returns
+    -------
+    ReadoutEstimate
+        See :func:`unjello.readout.estimate_readout`.
+    """
+    src = Path(src)
+    if not src.exists():
+        raise InputError(f"{src}: no such file or folder")
+    frames, starts, _ = _frames_for_estimate(src, max_frames)
+    if not frames:
+        raise InputError(f"{src}: no frames")
+    return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback)
+
+
+def _resolve_readout(src: Path, readout: float | str, direction: str,
+                     log: Callable[[str], None] | None) -> float | str:
+    """Turn ``'auto'`` into a number, saying what was found."""
+    if not (isinstance(readout, str) and readout.strip().lower() == "auto"):
+        return readout
+    est = estimate_readout_file(src, direction=direction)
+    if log:
+        if est.reliable:
+            log(f"readout estimated from the motion: {est.readout:.3f} of the frame interval "
+                f"(confidence {est.confidence:.2f})")
+        else:
+            log(f"warning: the motion is too weak or too uniform to estimate the readout "
+                f"(confidence {est.confidence:.2f}); using {est.readout:g}")
+    return est.readout
+
+
 def correct_video(
     src: str | os.PathLike,
     dst: str | os.PathLike,
@@ -253,6 +330,7 @@ def correct_video(
     overwrite: bool = False,
     motion_out: str | os.PathLike | None = None,
     progress: Progress | None = None,
+    log: Callable[[str], None] | None = None,
 ) -> Trajectory:
     """Correct a video file, or a folder of frames, into ``dst``.
 
@@ -264,7 +342,8 @@ def correct_video(
         Output video file, or (for a folder input) output folder receiving the corrected
         frames under the same names.
     readout : float or str
-        Readout as a fraction of the frame interval, or ``"15.7ms"``.
+        Readout as a fraction of the frame interval, ``"15.7ms"``, or ``"auto"`` to
+        estimate it from the motion (:func:`estimate_readout_file`).
     direction, reference : str
         See :class:`~unjello.timing.SensorTiming`.
     config : CorrectionConfig
@@ -277,6 +356,8 @@ def correct_video(
         Also write the estimated trajectory as JSON.
     progress : callable, optional
         Called as ``progress(done, total)`` after each frame (``total`` may be 0).
+    log : callable, optional
+        Receives one-line messages (what ``auto`` found, warnings).
 
     Returns
     -------
@@ -291,6 +372,7 @@ def correct_video(
     """
     src_p, dst_p = Path(src), Path(dst)
     _check_paths(src_p, dst_p, overwrite)
+    readout = _resolve_readout(src_p, readout, direction, log)
     if src_p.is_dir():
         traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress)
     else:

@@ -45,7 +45,8 @@ import numpy as np
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 
-__all__ = ["DenseConfig", "DenseMethod", "optical_flow", "solve_camera_trajectory"]
+__all__ = ["DenseConfig", "DenseMethod", "optical_flow", "solve_camera_trajectory",
+           "pair_row_flows", "row_flows"]
 
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -148,10 +149,10 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
+def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
-                            smoothness: float, row_knots: int = 16
-                            ) -> tuple[float, np.ndarray, np.ndarray]:
+                            smoothness: float, row_knots: int = 16, return_cost: bool = False
+                            ) -> tuple[float, np.ndarray, np.ndarray] | float:
     """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
 
     ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
@@ -165,8 +166,9 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
     ----------
     t_a, t_b : ndarray of shape (m,)
         Times of the two ends of each equation (later frame, earlier frame).
-    rows : ndarray of shape (m,)
-        Row of each equation in the later frame, as a fraction of the height.
+    rows : ndarray of shape (m,) or None
+        Row of each equation in the later frame, as a fraction of the height; None
+        leaves the row velocity ``u`` out of the model.
     delta : ndarray of shape (m, 2)
         Observed displacement of the row's content from ``t_b`` to ``t_a``.
     weight : ndarray of shape (m,)
@@ -177,6 +179,8 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
         Weight of the penalty on the acceleration of ``c``.
     row_knots : int
         Knots of ``u`` over the frame height (linear in between).
+    return_cost : bool
+        Return only the minimised objective (misfit plus penalties), to compare models.
 
     Returns
     -------
@@ -200,16 +204,18 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
     t0 = float(min(t_a.min(), t_b.min())) - step
     t1 = float(max(t_a.max(), t_b.max())) + step
     n = int(np.ceil((t1 - t0) / step)) + 2
-    k = row_knots
+    k = row_knots if rows is not None else 0
     ia, wa0, wa1 = _interp_matrix(t_a, t0, step, n)
     ib, wb0, wb1 = _interp_matrix(t_b, t0, step, n)
-    ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
     m = t_a.size
-    gap = t_a - t_b
     a = np.zeros((m, n + k))
     r = np.arange(m)
-    for cols, vals in ((ia, wa0), (ia + 1, wa1), (ib, -wb0), (ib + 1, -wb1),
-                       (n + ir, gap * wr0), (n + ir + 1, gap * wr1)):
+    terms = [(ia, wa0), (ia + 1, wa1), (ib, -wb0), (ib + 1, -wb1)]
+    if rows is not None:
+        ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
+        gap = t_a - t_b
+        terms += [(n + ir, gap * wr0), (n + ir + 1, gap * wr1)]
+    for cols, vals in terms:
         np.add.at(a, (r, cols), vals)
     sw = np.sqrt(weight)[:, None]
     aw = a * sw
@@ -221,13 +227,17 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
     j = np.arange(n - 2)
     d2[j, j], d2[j, j + 1], d2[j, j + 2] = 1.0, -2.0, 1.0
     ata[:n, :n] += smoothness * scale / step**3 * (d2.T @ d2)
-    # u: small roughness and ridge penalties (a constant velocity belongs to c).
-    e2 = np.zeros((k - 2, k))
-    j = np.arange(k - 2)
-    e2[j, j], e2[j, j + 1], e2[j, j + 2] = 1.0, -2.0, 1.0
-    ata[n:, n:] += 1e-3 * scale * (e2.T @ e2) + 1e-4 * scale * np.eye(k)
+    if k:
+        # u: small roughness and ridge penalties (a constant velocity belongs to c).
+        e2 = np.zeros((k - 2, k))
+        j = np.arange(k - 2)
+        e2[j, j], e2[j, j + 1], e2[j, j + 2] = 1.0, -2.0, 1.0
+        ata[n:, n:] += 1e-3 * scale * (e2.T @ e2) + 1e-4 * scale * np.eye(k)
     ata += 1e-9 * np.eye(n + k) * (np.trace(ata) / (n + k) + 1e-12)
     sol = np.linalg.solve(ata, atb)
+    if return_cost:
+        # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
+        return float(((delta * sw) ** 2).sum() - (sol * atb).sum())
     c, u = sol[:n], sol[n:]
     return t0, c - c.mean(axis=0), u
 
@@ -259,6 +269,42 @@ def _shorth(values: np.ndarray) -> np.ndarray:
     lo = np.take_along_axis(srt, best[:, None, :], axis=1)[:, 0]
     hi = np.take_along_axis(srt, np.minimum(best + half, n - 1)[:, None, :], axis=1)[:, 0]
     return 0.5 * (lo + hi)
+
+
+def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Dominant flow of every row with enough reliable pixels.
+
+    Parameters
+    ----------
+    flow : ndarray of shape (h, w, 2)
+        Flow from a frame to its previous one.
+    ok : ndarray of bool, shape (h, w)
+        Reliable pixels.
+
+    Returns
+    -------
+    rows : ndarray of shape (m,)
+        Row indices (float).
+    flow : ndarray of shape (m, 2)
+        The row's flow (:func:`_shorth` of its reliable pixels).
+    weight : ndarray of shape (m,)
+        Fraction of the row's pixels that were reliable.
+    """
+    h, w = ok.shape
+    count = ok.sum(axis=1)
+    use = count >= max(8, 0.15 * w)
+    if not use.any():
+        return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
+    vals = np.where(ok[use][..., None], flow[use], np.nan)
+    return np.flatnonzero(use).astype(np.float64), _shorth(vals), count[use] / w
+
+
+def pair_row_flows(prev: np.ndarray, cur: np.ndarray, config: DenseConfig = DenseConfig()
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Row flows from ``cur`` to ``prev`` (see :func:`row_flows`), with the flow check."""
+    bwd = optical_flow(cur, prev, config.flow_preset, config.flow_width, config.finest_scale)
+    fwd = optical_flow(prev, cur, config.flow_preset, config.flow_width, config.finest_scale)
+    return row_flows(bwd, _consistent(bwd, fwd, config.consistency))
 
 
 def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
@@ -325,23 +371,14 @@ class DenseMethod:
         return self._ready(final=True)
 
     def _row_equations(self, prev: _Frame, cur: _Frame) -> tuple:
-        """Median flow of every row of ``cur`` -> equations ``c(t_a) - c(t_b) = delta``."""
+        """Row flows of ``cur`` -> equations ``c(t_a) - c(t_b) + u(y)(t_a - t_b) = delta``."""
         assert cur.bwd is not None and cur.bwd_ok is not None
-        h, w = cur.image.shape
+        h = cur.image.shape[0]
         rho = self.timing.readout
-        flow = np.where(cur.bwd_ok[..., None], cur.bwd, np.nan)
-        count = cur.bwd_ok.sum(axis=1)
-        use = count >= max(8, 0.15 * w)
-        med = np.full((h, 2), np.nan)
-        if use.any():
-            med[use] = _shorth(flow[use])
-        y = np.arange(h, dtype=np.float64)
+        y, med, wgt = row_flows(cur.bwd, cur.bwd_ok)
         t_a = cur.start + rho * y / h
         t_b = prev.start + rho * (y + med[:, 1]) / h
-        delta = -med
-        wgt = count / w
-        keep = use & np.isfinite(t_b)
-        return t_a[keep], t_b[keep], y[keep] / max(h - 1, 1), delta[keep], wgt[keep]
+        return t_a, t_b, y / max(h - 1, 1), -med, wgt
 
     def _ready(self, final: bool) -> list[FrameMotion]:
         out = []

@@ -221,6 +221,9 @@ def block_match(
                                    - cb[None]).sum(axis=1)
                     keep = bound <= best
                     cand, bound = cand[keep], bound[keep]
+            if cand.size == 0:  # rounding removed even the seeds: search them exactly
+                cand = np.unique(seeds)
+                bound = np.zeros(cand.size)
             order = np.argsort(bound, kind="stable")
             cand, bound = cand[order], bound[order]
             done_idx, done_sad = [], []

@@ -1,0 +1,275 @@
+"""Readout time: measured from a flicker frame, or estimated from the footage itself.
+
+From a flicker frame
+--------------------
+A light flickering at a known frequency ``f`` (an LED driven at 1 kHz, mains lighting
+at 100/120 Hz) is bright and dark in turn while the sensor reads its lines, so a frame
+shows bands that repeat every ``1/f`` seconds of readout. Their period ``P`` in lines
+gives the time per line ``1 / (f P)``, and the readout time of the ``h`` lines is
+``h / (f P)`` (:func:`readout_from_flicker`). The period is found from the row profile
+(mean over the lines' pixels, high-passed): the peak of its zero-padded spectrum, then
+a least-squares sinusoid fit; blur, noise and partial coverage change the bands'
+contrast, not their period.
+
+From the footage
+----------------
+The readout ratio ``rho`` sets when each row is imaged (``t_n + rho y / h``). Between
+two frames, row ``y``'s content moved from row ``y'`` of the previous frame, so the
+per-row flow is a difference of the camera trajectory at two times that depend on
+``rho`` (eq. 10 with ``rho``). Under the true ``rho`` all rows of all frame pairs are
+explained by one smooth trajectory; under a wrong one the equations contradict each
+other wherever the motion changes (:func:`estimate_readout` scores each candidate by
+the regularised least-squares cost of that fit, the per-row flows being computed once).
+A constant velocity gives every ``rho`` the same cost -- the skew is the same in every
+frame, so no method can tell -- and the estimate then falls back to a default with a
+low confidence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import curve_fit
+
+from .errors import InputError
+from .timing import to_top_bottom
+
+__all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "ReadoutEstimate",
+           "estimate_readout"]
+
+
+@dataclass(frozen=True)
+class FlickerReadout:
+    """Readout measured from a flicker frame.
+
+    Attributes
+    ----------
+    milliseconds : float
+        Readout time of all lines.
+    period_lines : float
+        Band period in lines.
+    lines : int
+        Number of lines of the frame.
+    contrast : float
+        Amplitude of the fitted bands relative to the profile's spread (0-1).
+    """
+
+    milliseconds: float
+    period_lines: float
+    lines: int
+    contrast: float
+
+    def ratio(self, fps: float) -> float:
+        """Readout as a fraction of the frame interval at ``fps``."""
+        return self.milliseconds * 1e-3 * fps
+
+
+def band_period(image: np.ndarray, direction: str = "top-bottom") -> tuple[float, float]:
+    """Period (in lines) of flicker bands across the lines of an image.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W[, C])
+        The frame, in coded orientation.
+    direction : str
+        Scan direction: the bands run along the lines.
+
+    Returns
+    -------
+    period : float
+        Band period in lines.
+    contrast : float
+        Fitted sinusoid amplitude over the profile's standard deviation (about 1.4 for
+        clean bands, near 0 when there are none).
+
+    Raises
+    ------
+    InputError
+        If no periodic banding is found.
+    """
+    img = to_top_bottom(np.asarray(image), direction).astype(np.float64)
+    if img.ndim == 3:
+        img = img[..., :3].mean(axis=2)
+    h = img.shape[0]
+    if h < 16:
+        raise InputError("image too small to measure flicker bands")
+    profile = img.mean(axis=1)
+    trend = cv2.GaussianBlur(profile[:, None], (1, 0), sigmaX=0, sigmaY=h / 6.0)[:, 0]
+    x = profile - trend
+    if not np.any(x):
+        raise InputError("no flicker bands: the image has no brightness variation across lines")
+    pad = 1 << int(np.ceil(np.log2(h * 32)))
+    spec = np.abs(np.fft.rfft(x * np.hanning(h), n=pad))
+    freqs = np.fft.rfftfreq(pad)  # cycles per line
+    band = (freqs >= 1.5 / h) & (freqs <= 0.5)
+    if not band.any():
+        raise InputError("image too small to measure flicker bands")
+    k = int(np.flatnonzero(band)[np.argmax(spec[band])])
+    f0 = freqs[k]
+    if 0 < k < spec.size - 1:
+        a, b, c = np.log(spec[k - 1:k + 2] + 1e-12)
+        den = a - 2 * b + c
+        if den < 0:
+            f0 = freqs[k] + 0.5 * (a - c) / den * (freqs[1] - freqs[0])
+    y = np.arange(h, dtype=np.float64)
+
+    def sine(yy: np.ndarray, amp: float, freq: float, phase: float, off: float) -> np.ndarray:
+        return amp * np.sin(2 * np.pi * freq * yy + phase) + off
+
+    ph0 = float(np.angle(np.sum(x * np.exp(-2j * np.pi * f0 * y))) + np.pi / 2)
+    try:
+        (amp, freq, _, _), _ = curve_fit(sine, y, x, p0=[x.std() * 1.4, f0, ph0, 0.0],
+                                         maxfev=5000)
+    except RuntimeError:
+        amp, freq = x.std() * 1.4, f0
+    contrast = float(abs(amp) / (x.std() + 1e-12))
+    if not (1.5 / h <= abs(freq) <= 0.5) or contrast < 0.6:
+        raise InputError("no clear flicker bands found across the lines of this image")
+    return float(1.0 / abs(freq)), contrast
+
+
+def readout_from_flicker(image: np.ndarray, frequency: float, *,
+                         direction: str = "top-bottom") -> FlickerReadout:
+    """Readout time from a frame of a light flickering at ``frequency`` Hz.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W[, C])
+    frequency : float
+        Flicker frequency in Hz (the LED's, or twice the mains frequency).
+    direction : str
+        Scan direction of the sensor.
+
+    Returns
+    -------
+    FlickerReadout
+
+    Examples
+    --------
+    Bands every 50 lines of a 1 kHz light on 500 lines: 10 periods, 10 ms.
+
+    >>> y = np.arange(500)[:, None]
+    >>> img = np.repeat(128 + 100 * np.sign(np.sin(2 * np.pi * y / 50)), 64, axis=1)
+    >>> round(readout_from_flicker(img, 1000.0).milliseconds, 1)
+    10.0
+    """
+    if not frequency > 0:
+        raise InputError("the flicker frequency must be positive")
+    period, contrast = band_period(image, direction)
+    lines = to_top_bottom(np.asarray(image), direction).shape[0]
+    ms = lines / (frequency * period) * 1e3
+    return FlickerReadout(milliseconds=float(ms), period_lines=period, lines=lines,
+                          contrast=contrast)
+
+
+@dataclass(frozen=True)
+class ReadoutEstimate:
+    """Readout ratio estimated from footage.
+
+    Attributes
+    ----------
+    readout : float
+        The estimate (or the fallback), fraction of the frame interval.
+    confidence : float
+        0-1: how much better the best candidate explains the motion than the others.
+    reliable : bool
+        False when the motion was too weak or too uniform and ``readout`` is the fallback.
+    candidates : ndarray of shape (k,)
+    costs : ndarray of shape (k,)
+        The fit cost of each candidate (lower is better).
+    """
+
+    readout: float
+    confidence: float
+    reliable: bool
+    candidates: np.ndarray
+    costs: np.ndarray
+
+
+def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bottom",
+                     starts: Iterable[float] | None = None, max_frames: int = 60,
+                     fallback: float = 1.0, min_confidence: float = 0.15,
+                     min_variation: float = 0.5) -> ReadoutEstimate:
+    """Estimate the readout ratio from a clip (see the module notes).
+
+    Parameters
+    ----------
+    frames : iterable of ndarray of shape (H, W[, C])
+        Consecutive frames in coded orientation (only the first ``max_frames`` are used).
+    direction : str
+        Scan direction.
+    starts : iterable of float, optional
+        Frame start times in frame intervals (default 0, 1, 2, ...).
+    max_frames : int
+        Frames to analyse.
+    fallback : float
+        Readout returned when the motion cannot tell.
+    min_confidence : float
+        Below this confidence the estimate is not reliable and ``fallback`` is returned.
+    min_variation : float
+        Standard deviation (px) the per-row flows must show over rows and frames; less
+        is uniform motion, from which the readout cannot be told (confidence 0).
+
+    Returns
+    -------
+    ReadoutEstimate
+    """
+    from .motion.dense import DenseConfig, pair_row_flows, solve_camera_trajectory
+
+    grey, times = [], []
+    start_list = list(starts) if starts is not None else None
+    for i, img in enumerate(frames):
+        if i >= max_frames:
+            break
+        g = to_top_bottom(np.asarray(img), direction)
+        if g.ndim == 3:
+            g = cv2.cvtColor(g[..., :3].astype(np.float32), cv2.COLOR_RGB2GRAY)
+        grey.append(g.astype(np.float32) * (255.0 / max(float(g.max()), 1.0)
+                                            if g.dtype != np.uint8 else 1.0))
+        times.append(float(start_list[i]) if start_list is not None else float(i))
+    if len(grey) < 3:
+        return ReadoutEstimate(fallback, 0.0, False, np.zeros(0), np.zeros(0))
+    h = grey[0].shape[0]
+    cfg = DenseConfig()
+    pairs = [pair_row_flows(grey[k - 1], grey[k], cfg) for k in range(1, len(grey))]
+    # Uniform motion carries no information on the readout: check there is variation.
+    flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(
+        p[1].size for p in pairs) else np.zeros((0, 2))
+    variation = float(np.linalg.norm(flows.std(axis=0))) if len(flows) > 1 else 0.0
+    candidates = np.round(np.arange(0.1, 1.0001, 0.05), 4)
+    costs = np.zeros(candidates.size)
+    window = 4
+    for j, rho in enumerate(candidates):
+        total = 0.0
+        for k0 in range(0, len(pairs), window // 2):
+            eq = []
+            for k in range(k0, min(k0 + window, len(pairs))):
+                y, med, wgt = pairs[k]
+                if y.size == 0:
+                    continue
+                t_a = times[k + 1] + rho * y / h
+                t_b = times[k] + rho * (y + med[:, 1]) / h
+                eq.append((t_a, t_b, -med, wgt))
+            if not eq:
+                continue
+            t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eq]) for i in range(4))
+            total += solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
+                                             1e-3, return_cost=True)
+        costs[j] = total
+    best = int(np.argmin(costs))
+    rho = float(candidates[best])
+    if 0 < best < candidates.size - 1:
+        a, b, c = costs[best - 1:best + 2]
+        den = a - 2 * b + c
+        if den > 0:
+            rho = float(rho + 0.05 * 0.5 * (a - c) / den)
+    spread = float(np.median(costs) - costs[best])
+    confidence = float(np.clip(spread / (np.median(costs) + 1e-12), 0.0, 1.0))
+    if variation < min_variation:
+        confidence = 0.0
+    reliable = confidence >= min_confidence
+    return ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
+                           confidence, reliable, candidates, costs)
