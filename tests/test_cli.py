@@ -115,7 +115,38 @@ def test_correct_with_auto_readout(tmp_path, scene):
               "0.6", "--frames", "12", "--size", "320x240")
     assert res.returncode == 0, res.stderr
     out, motion = tmp_path / "out.mp4", tmp_path / "m.json"
-    res = run("correct", rs, "-o", out, "--readout", "auto", "--motion-out", motion, "-q")
+    res = run("correct", rs, "-o", out, "--readout", "auto", "--motion-out", motion, "--json")
     assert res.returncode == 0, res.stderr
-    assert "readout estimated" in res.stderr
+    summary = json.loads(res.stdout)
+    assert "readout estimated" in summary["messages"][0]
     assert abs(json.loads(motion.read_text())["readout"] - 0.6) <= 0.05
+
+
+def test_preset_file_and_command_line_wins(tmp_path, clip):
+    preset = tmp_path / "cam.json"
+    preset.write_text(json.dumps({"readout": "0.7", "method": "paper",
+                                  "x264-preset": "ultrafast"}))
+    res = run("correct", clip, "-o", tmp_path / "a.mp4", "--preset", preset, "--json")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(res.stdout)
+    assert doc["readout"] == 0.7 and doc["method"] == "paper"
+    res = run("correct", clip, "-o", tmp_path / "b.mp4", "--preset", preset, "--readout",
+              "0.5", "--json")
+    assert json.loads(res.stdout)["readout"] == 0.5
+
+
+def test_probe_json(clip):
+    res = run("probe", clip, "--json")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(res.stdout)
+    assert doc["width"] == 192 and doc["audio_streams"] == 1
+    assert doc["variable_frame_rate"] is False
+
+
+def test_plot_command(tmp_path, clip):
+    motion = tmp_path / "m.json"
+    assert run("correct", clip, "-o", tmp_path / "o.mp4", "--motion-out", motion,
+               "-q").returncode == 0
+    res = run("plot", motion, "-o", tmp_path / "m.png")
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "m.png").stat().st_size > 10000

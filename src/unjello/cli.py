@@ -25,6 +25,46 @@ from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
 __all__ = ["main", "cli"]
 
 
+PRESETS: dict[str, dict[str, Any]] = {
+    # The paper's own output: its method, forward splatting, black where nothing lands.
+    "paper-figures": {"method": "paper", "warp": "splat", "fill": "black"},
+    # Quick look: faster encoder, default motion.
+    "fast": {"x264_preset": "veryfast", "crf": 20},
+}
+_PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
+                "codec", "crf", "x264_preset")
+
+
+def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
+    """Merge a named or JSON preset under the options given on the command line."""
+    from click.core import ParameterSource
+
+    from .errors import SettingsError
+
+    if preset in PRESETS:
+        values = dict(PRESETS[preset])
+    else:
+        path = Path(preset)
+        if not path.exists():
+            raise SettingsError(f"unknown preset {preset!r}: use one of {', '.join(PRESETS)} "
+                                "or a JSON file")
+        try:
+            values = json.loads(path.read_text())
+        except ValueError as exc:
+            raise SettingsError(f"preset {path}: not valid JSON ({exc})") from None
+        if not isinstance(values, dict):
+            raise SettingsError(f"preset {path}: must be a JSON object")
+    values = {k.replace("-", "_"): v for k, v in values.items()}
+    unknown = sorted(set(values) - set(_PRESET_KEYS))
+    if unknown:
+        raise SettingsError(f"preset {preset}: unknown key(s) {', '.join(unknown)}")
+    out = {}
+    for key in _PRESET_KEYS:
+        given = ctx.get_parameter_source(key) == ParameterSource.COMMANDLINE
+        out[key] = ctx.params[key] if given or key not in values else values[key]
+    return out
+
+
 @contextmanager
 def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | None]:
     """Yield a Rich progress callback on a terminal, None otherwise."""
@@ -89,36 +129,74 @@ def cli() -> None:
 @click.option("--search", type=click.IntRange(1, 1000), default=160, show_default=True,
               help="Global block-matching search range, px (paper: 160).")
 @click.option("--motion-out", type=click.Path(path_type=Path),
-              help="Write the estimated per-scanline motion as JSON.")
+              help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
+@click.option("--motion-in", type=click.Path(path_type=Path),
+              help="Apply a motion JSON from --motion-out instead of estimating it.")
+@click.option("--preview", type=click.Path(path_type=Path),
+              help="Also write a side-by-side video: input left, corrected right.")
+@click.option("--stmap", type=click.Path(path_type=Path),
+              help="Folder for per-frame 16-bit STMap PNGs (Nuke, Resolve/Fusion, AE).")
+@click.option("--preset", help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file "
+                               "with the same keys as these options; the command line wins.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print one JSON summary line on stdout.")
 @click.option("--codec", default="libx264", show_default=True)
 @click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
-@click.option("--preset", default="medium", show_default=True)
+@click.option("--x264-preset", default="medium", show_default=True,
+              help="Encoder speed/size preset (ultrafast ... veryslow).")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def correct(input: Path, output: Path, readout: str, direction: str, reference: str,
             method: str, warp: str, fill: str, search: int, motion_out: Path | None,
-            codec: str, crf: int, preset: str, overwrite: bool, quiet: bool) -> None:
+            motion_in: Path | None, preview: Path | None, stmap: Path | None,
+            preset: str | None, as_json: bool, codec: str, crf: int, x264_preset: str,
+            overwrite: bool, quiet: bool) -> None:
     """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
+    import time
+
     from .motion.global_motion import BlockMatchConfig
     from .motion.paper import PaperConfig
     from .pipeline import CorrectionConfig, correct_video
 
+    if preset:
+        values = _apply_preset(click.get_current_context(), preset)
+        readout, direction, reference = values["readout"], values["direction"], values[
+            "reference"]
+        method, warp, fill, search = (values["method"], values["warp"], values["fill"],
+                                      values["search"])
+        codec, crf, x264_preset = values["codec"], values["crf"], values["x264_preset"]
     config = CorrectionConfig(method=method, warp=warp, fill=fill,  # type: ignore[arg-type]
                               paper=PaperConfig(BlockMatchConfig(search=search)))
-    if readout.strip().lower() != "auto" and not input.is_dir():
-        parse_readout(readout, 30.0)  # validate early, before opening anything
-    with _progress("correcting", quiet) as progress:
+    if str(readout).strip().lower() != "auto" and not input.is_dir():
+        parse_readout(str(readout), 30.0)  # validate early, before opening anything
+    messages: list[str] = []
+
+    def log(m: str) -> None:
+        messages.append(m)
+        if not quiet or m.startswith("warning"):
+            click.echo(m, err=True)
+
+    t0 = time.perf_counter()
+    with _progress("correcting", quiet or as_json) as progress:
         traj = correct_video(input, output, readout=readout, direction=direction,
                              reference=reference, config=config,
-                             encode=EncodeOptions(codec, crf, preset), overwrite=overwrite,
-                             motion_out=motion_out, progress=progress,
-                             log=lambda m: click.echo(m, err=True))
+                             encode=EncodeOptions(codec, crf, x264_preset), overwrite=overwrite,
+                             motion_out=motion_out, progress=progress, log=log,
+                             motion_in=motion_in, preview=preview, stmap=stmap)
+    seconds = time.perf_counter() - t0
     bad = sum(not f.ok for f in traj.frames)
-    if bad:
-        click.echo(f"warning: motion bridged over on {bad} frame(s)", err=True)
-    if not quiet:
-        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g})",
-                   err=True)
+    if bad and len(traj) > 1:
+        log(f"warning: motion bridged over on {bad} frame(s)")
+    if as_json:
+        click.echo(json.dumps({
+            "input": str(input), "output": str(output), "frames": len(traj),
+            "method": traj.method, "readout": traj.timing.readout,
+            "direction": traj.timing.direction, "reference": traj.timing.reference,
+            "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
+            "bridged_frames": bad, "messages": messages}))
+    elif not quiet:
+        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g}, "
+                   f"{len(traj) / max(seconds, 1e-9):.1f} fps)", err=True)
 
 
 @cli.command()
@@ -271,6 +349,50 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
     click.echo(f"PSNR vs global-shutter truth: before {report['psnr_before']:.2f} dB, "
                f"after {report['psnr_after']:.2f} dB")
     click.echo(f"wrote {report['video']} (left: input, right: corrected) and {report['still']}")
+
+
+@cli.command()
+@click.argument("motion", type=click.Path(path_type=Path))
+@click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
+              help="Image to write (PNG).")
+@click.option("-y", "--overwrite", is_flag=True)
+def plot(motion: Path, output: Path, overwrite: bool) -> None:
+    """Plot a motion JSON: per-scanline displacement and velocity over time."""
+    from .errors import OutputError
+    from .exports import plot_trajectory
+    from .trajectory import Trajectory
+
+    if output.exists() and not overwrite:
+        raise OutputError(f"{output} exists; pass -y to overwrite it")
+    plot_trajectory(Trajectory.load(motion), output)
+    click.echo(f"wrote {output}", err=True)
+
+
+@cli.command()
+@click.argument("input", type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True)
+def probe(input: Path, as_json: bool) -> None:
+    """Describe a video: size, rate (and whether it varies), rotation, audio, format."""
+    from .io.video import probe as run_probe
+    from .io.video import variable_rate
+
+    info = run_probe(input)
+    vfr = variable_rate(input)
+    doc = {"path": str(input), "width": info.width, "height": info.height,
+           "fps": round(info.fps, 4), "variable_frame_rate": vfr, "frames": info.frames,
+           "duration": round(info.duration, 3), "codec": info.codec, "pix_fmt": info.pix_fmt,
+           "bit_depth": info.bit_depth, "rotation": info.rotation,
+           "audio_streams": info.audio_streams, "readout": None,
+           "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}
+    if as_json:
+        click.echo(json.dumps(doc))
+        return
+    click.echo(f"{input}: {info.width}x{info.height} {info.codec} {info.pix_fmt} "
+               f"({info.bit_depth}-bit), {info.fps:.3f} fps{' (variable)' if vfr else ''}, "
+               f"{info.frames} frames, {info.duration:.2f} s")
+    click.echo(f"rotation {info.rotation} deg, {info.audio_streams} audio stream(s)")
+    click.echo("readout: not stated in the file; measure it (unjello readout), estimate it "
+               "(unjello estimate-readout) or pass --readout")
 
 
 def main(argv: list[str] | None = None) -> Any:

@@ -107,16 +107,22 @@ class Corrector:
     max_value : float, optional
         White level of the first plane (255 for 8 bit, 1023 for 10 bit); default from
         the dtype.
+    motion : Trajectory, optional
+        Apply this motion (e.g. from ``--motion-in``) instead of estimating it.
     """
 
     def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
-                 max_value: float | None = None) -> None:
+                 max_value: float | None = None, motion: Trajectory | None = None) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
-        self._method: PaperMethod | DenseMethod = (
-            PaperMethod(timing, config.paper) if config.method == "paper"
-            else DenseMethod(timing, config.dense))
+        self._method: PaperMethod | DenseMethod | _Replay
+        if motion is not None:
+            self._method = _Replay(motion)
+        elif config.method == "paper":
+            self._method = PaperMethod(timing, config.paper)
+        else:
+            self._method = DenseMethod(timing, config.dense)
         self._held: deque[list[np.ndarray]] = deque()
 
     def push(self, planes: Sequence[np.ndarray], start: float
@@ -163,6 +169,26 @@ class Corrector:
                 res, _ = warp_image(tb, disp, mode=self.config.warp, fill=self.config.fill)
             out.append(from_top_bottom(res, d))
         return out
+
+
+class _Replay:
+    """A "method" that hands back the frames of a stored Trajectory, in order."""
+
+    def __init__(self, traj: Trajectory) -> None:
+        self._frames = {f.index: f for f in traj.frames}
+        self._n = 0
+
+    def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
+        fm = self._frames.get(self._n)
+        if fm is None:
+            raise InputError(f"the motion file has no frame {self._n}")
+        if fm.displacement.shape[0] != frame.shape[0]:
+            raise InputError("the motion file was made for frames of another size")
+        self._n += 1
+        return [fm]
+
+    def flush(self) -> list[FrameMotion]:
+        return []
 
 
 def correct_frames(
@@ -331,6 +357,9 @@ def correct_video(
     motion_out: str | os.PathLike | None = None,
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
+    motion_in: str | os.PathLike | None = None,
+    preview: str | os.PathLike | None = None,
+    stmap: str | os.PathLike | None = None,
 ) -> Trajectory:
     """Correct a video file, or a folder of frames, into ``dst``.
 
@@ -358,6 +387,13 @@ def correct_video(
         Called as ``progress(done, total)`` after each frame (``total`` may be 0).
     log : callable, optional
         Receives one-line messages (what ``auto`` found, warnings).
+    motion_in : path-like, optional
+        Apply a trajectory written by ``motion_out`` instead of estimating the motion
+        (its readout, direction and reference are used).
+    preview : path-like, optional
+        Also write a side-by-side video: input left, corrected right.
+    stmap : path-like, optional
+        Folder receiving one 16-bit STMap PNG per frame (see :mod:`unjello.exports`).
 
     Returns
     -------
@@ -372,12 +408,24 @@ def correct_video(
     """
     src_p, dst_p = Path(src), Path(dst)
     _check_paths(src_p, dst_p, overwrite)
-    readout = _resolve_readout(src_p, readout, direction, log)
+    for extra in (preview, stmap, motion_out):
+        if extra is not None and Path(extra).exists() and not overwrite:
+            raise OutputError(f"{extra} exists; pass -y to overwrite it")
+    given = Trajectory.load(motion_in) if motion_in is not None else None
+    if given is not None:
+        readout, direction, reference = (given.timing.readout, given.timing.direction,
+                                         given.timing.reference)
+    else:
+        readout = _resolve_readout(src_p, readout, direction, log)
+    extras = _Extras(preview, stmap, overwrite, encode)
     if src_p.is_dir():
-        traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress)
+        traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress,
+                               given, extras)
     else:
         traj = _correct_file(src_p, dst_p, readout, direction, reference, config, encode,
-                             progress)
+                             progress, given, extras)
+    if log and len(traj) == 1:
+        log("warning: a single frame has no motion to measure; copied through unchanged")
     if motion_out is not None:
         traj.save(motion_out)
     return traj
@@ -386,8 +434,102 @@ def correct_video(
 correct = correct_video
 
 
+class _Extras:
+    """Optional side outputs written while correcting: preview video and STMaps."""
+
+    def __init__(self, preview: str | os.PathLike | None, stmap: str | os.PathLike | None,
+                 overwrite: bool, encode: EncodeOptions) -> None:
+        self.preview = Path(preview) if preview is not None else None
+        self.stmap = Path(stmap) if stmap is not None else None
+        self.overwrite = overwrite
+        self.encode = encode
+        self._stmap_tmp: Path | None = None
+        self._sink: FrameSink | None = None
+        self._writer: VideoWriter | None = None
+        self._preview_tmp: Path | None = None
+
+    def start(self, fps: float, reader: VideoReader | None = None) -> None:
+        if self.stmap is not None:
+            self._stmap_tmp = _temp_path(self.stmap)
+            self._stmap_tmp.mkdir()
+        if self.preview is not None:
+            if reader is not None:
+                info = reader.info
+                self._preview_tmp = _temp_path(self.preview)
+                self._writer = VideoWriter(
+                    self._preview_tmp, size=(2 * info.width + 4, info.height), fps=info.fps,
+                    time_base=info.time_base, pix_fmt=reader.work_format, options=self.encode,
+                    rotation=info.rotation, color=info.color)
+            else:
+                self._sink = FrameSink(self.preview, fps, self.overwrite, self.encode)
+
+    def frame(self, before: list[np.ndarray], after: list[np.ndarray], fm: FrameMotion,
+              timing: SensorTiming, pts: int | None = None) -> None:
+        if self._stmap_tmp is not None:
+            from .exports import write_stmap
+
+            h, w = before[0].shape[:2]
+            write_stmap(self._stmap_tmp, fm, timing, (w, h))
+        if self._writer is not None:
+            self._writer.write(_side_by_side_planes(before, after), pts)
+        elif self._sink is not None:
+            from .demo import side_by_side
+
+            self._sink.write(side_by_side(_rgb8(before[0]), _rgb8(after[0]), ("input", "unjello")))
+
+    def finish(self) -> None:
+        if self._writer is not None and self._preview_tmp is not None and self.preview:
+            self._writer.close()
+            _replace(self._preview_tmp, self.preview)
+        if self._sink is not None:
+            self._sink.close()
+        if self._stmap_tmp is not None and self.stmap is not None:
+            _replace(self._stmap_tmp, self.stmap)
+
+    def abort(self) -> None:
+        if self._writer is not None:
+            self._writer.abort()
+        if self._sink is not None:
+            self._sink.abort()
+        for tmp in (self._preview_tmp, self._stmap_tmp):
+            if tmp is not None and tmp.is_dir():
+                shutil.rmtree(tmp, ignore_errors=True)
+            elif tmp is not None and tmp.exists():
+                tmp.unlink()
+
+
+def _replace(tmp: Path, dst: Path) -> None:
+    if dst.is_dir():
+        shutil.rmtree(dst)
+    elif dst.exists():
+        dst.unlink()
+    os.replace(tmp, dst)
+
+
+def _rgb8(img: np.ndarray) -> np.ndarray:
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=2)
+    if img.dtype != np.uint8:
+        img = (img.astype(np.float64) * 255.0 / np.iinfo(img.dtype).max).astype(np.uint8)
+    return np.ascontiguousarray(img[..., :3])
+
+
+def _side_by_side_planes(before: list[np.ndarray], after: list[np.ndarray]) -> list[np.ndarray]:
+    """Input and output planes next to each other with a 4-pixel white divider."""
+    out = []
+    w0 = before[0].shape[1]
+    for i, (a, b) in enumerate(zip(before, after, strict=True)):
+        div = max(1, 4 * a.shape[1] // w0)
+        white = np.iinfo(a.dtype).max if i == 0 else (np.iinfo(a.dtype).max + 1) // 2
+        bar = np.full((a.shape[0], div) + a.shape[2:], white, dtype=a.dtype)
+        out.append(np.hstack([a, bar, b]))
+    return out
+
+
 def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
-                    config: CorrectionConfig, progress: Progress | None) -> Trajectory:
+                    config: CorrectionConfig, progress: Progress | None,
+                    given: Trajectory | None = None, extras: _Extras | None = None
+                    ) -> Trajectory:
     files = list_frames(src)
     if isinstance(readout, str) and readout.strip().endswith("ms"):
         raise SettingsError("a readout in milliseconds needs a video (a folder has no fps)")
@@ -406,29 +548,35 @@ def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, 
 
     tmp = _temp_path(dst)
     tmp.mkdir()
+    extras = extras or _Extras(None, None, False, EncodeOptions())
     try:
-        corr = Corrector(timing, config)
-        traj = Trajectory(timing, (first.shape[1], first.shape[0]), method=config.method)
+        corr = Corrector(timing, config, motion=given)
+        traj = Trajectory(timing, (first.shape[1], first.shape[0]),
+                          method=given.method if given else config.method)
         names = iter(files)
+        inputs: deque[np.ndarray] = deque()
         done = 0
+        extras.start(30.0)
 
         def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
             nonlocal done
             for planes, fm in items:
                 write_image(tmp / next(names).name, planes[0])
+                extras.frame([inputs.popleft()], planes, fm, timing)
                 traj.frames.append(fm)
                 done += 1
                 if progress:
                     progress(done, len(files))
 
         for i, img in enumerate(images()):
+            inputs.append(img)
             emit(corr.push([img], float(i)))
         emit(corr.flush())
-        if dst.is_dir():
-            shutil.rmtree(dst)
-        elif dst.exists():
-            dst.unlink()
-        os.replace(tmp, dst)
+        extras.finish()
+        _replace(tmp, dst)
+    except BaseException:
+        extras.abort()
+        raise
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
@@ -437,7 +585,8 @@ def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, 
 
 def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
                   config: CorrectionConfig, encode: EncodeOptions,
-                  progress: Progress | None) -> Trajectory:
+                  progress: Progress | None, given: Trajectory | None = None,
+                  extras: _Extras | None = None) -> Trajectory:
     with VideoReader(src) as reader:
         info = reader.info
         timing = SensorTiming(parse_readout(readout, info.fps), direction,  # type: ignore[arg-type]
@@ -445,18 +594,25 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
         if info.width < 16 or info.height < 16:
             raise InputError(f"{src}: frames of {info.width}x{info.height} are too small")
         max_value = 1023.0 if info.bit_depth == 10 else 255.0
-        corr = Corrector(timing, config, max_value=max_value)
-        traj = Trajectory(timing, (info.width, info.height), method=config.method)
+        corr = Corrector(timing, config, max_value=max_value, motion=given)
+        traj = Trajectory(timing, (info.width, info.height),
+                          method=given.method if given else config.method)
         tmp = _temp_path(dst)
         writer = VideoWriter.like(tmp, reader, encode)
+        extras = extras or _Extras(None, None, False, encode)
         pts_queue: deque[int | None] = deque()
+        inputs: deque[list[np.ndarray]] = deque()
         tb = float(info.time_base)
         first_pts: int | None = None
         n = 0
         try:
+            extras.start(info.fps, reader)
+
             def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
                 for planes, fm in items:
-                    writer.write(planes, pts_queue.popleft())
+                    pts = pts_queue.popleft()
+                    writer.write(planes, pts)
+                    extras.frame(inputs.popleft(), planes, fm, timing, pts)
                     traj.frames.append(fm)
                     if progress:
                         progress(writer.frames_written, info.frames)
@@ -470,14 +626,17 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
                 start = ((pts - first_pts) * tb * info.fps if pts is not None
                          and first_pts is not None else float(n))
                 pts_queue.append(pts)
+                inputs.append(item)  # type: ignore[arg-type]
                 emit(corr.push(item, start))  # type: ignore[arg-type]
                 n += 1
             if n == 0:
                 raise InputError(f"{src}: the video has no frames")
             emit(corr.flush())
             writer.close()
+            extras.finish()
         except BaseException:
             writer.abort()
+            extras.abort()
             if tmp.exists():
                 tmp.unlink()
             raise

@@ -10,9 +10,13 @@ orientation, see :mod:`unjello.timing`):
 
 Methods produce it; the warper, the exports, the metrics and the plots consume it.
 
-The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the timing, the
-frame size and, per frame, ``index``, ``start`` (in frame intervals), ``pts`` (seconds,
-or null), and ``displacement``/``velocity`` as lists of ``[x, y]`` pairs per scanline.
+The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the method, the
+timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
+``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
+scanline in frame intervals), ``ok``, ``note``, ``displacement`` and ``velocity`` as
+lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
+``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
+full ``field_shape`` ``[h, w]``.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from .errors import InputError
@@ -31,6 +36,7 @@ from .timing import SensorTiming
 __all__ = ["FrameMotion", "Trajectory", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
+FIELD_STEP = 8
 
 
 @dataclass(frozen=True)
@@ -73,8 +79,12 @@ class FrameMotion:
                                (self.displacement.shape[0], width, 2))
 
     def to_dict(self) -> dict:
-        """Return a JSON-serialisable dict of this frame."""
-        return {
+        """Return a JSON-serialisable dict of this frame.
+
+        A per-pixel field is stored every ``FIELD_STEP`` pixels (``field``, with its full
+        ``field_shape``); reading it back interpolates it bilinearly.
+        """
+        d = {
             "index": int(self.index),
             "start": float(self.start),
             "ok": bool(self.ok),
@@ -82,10 +92,23 @@ class FrameMotion:
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
         }
+        if self.field is not None:
+            h, w = self.field.shape[:2]
+            small = cv2.resize(self.field.astype(np.float32),
+                               (max(1, -(-w // FIELD_STEP)), max(1, -(-h // FIELD_STEP))),
+                               interpolation=cv2.INTER_AREA)
+            d["field_shape"] = [h, w]
+            d["field"] = np.round(small, 3).tolist()
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> FrameMotion:
         """Build a frame from :meth:`to_dict`'s output."""
+        field = None
+        if d.get("field") is not None:
+            h, w = (int(v) for v in d["field_shape"])
+            small = np.asarray(d["field"], dtype=np.float32)
+            field = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
         return cls(
             index=int(d["index"]),
             start=float(d["start"]),
@@ -93,6 +116,7 @@ class FrameMotion:
             velocity=np.asarray(d["velocity"], dtype=np.float64).reshape(-1, 2),
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
+            field=field,
         )
 
 

@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import InputError, OutputError
 
-__all__ = ["VideoInfo", "VideoReader", "VideoWriter", "probe", "EncodeOptions"]
+__all__ = ["VideoInfo", "VideoReader", "VideoWriter", "probe", "EncodeOptions",
+           "variable_rate"]
 
 _PLANAR = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p",
            "yuv420p10le", "yuv422p10le", "yuv444p10le"}
@@ -113,6 +114,25 @@ def probe(path: str | os.PathLike) -> VideoInfo:
         )
     finally:
         c.close()
+
+
+def variable_rate(path: str | os.PathLike, max_frames: int = 300) -> bool:
+    """Whether the first frames' pts steps differ by more than 1 % (variable frame rate)."""
+    c = _open(path)
+    try:
+        pts = []
+        for packet in c.demux(c.streams.video[0]):
+            if packet.pts is not None:
+                pts.append(packet.pts)
+            if len(pts) >= max_frames:
+                break
+    except av.FFmpegError:
+        return False
+    finally:
+        c.close()
+    steps = np.diff(np.sort(np.asarray(pts, dtype=np.float64)))
+    steps = steps[steps > 0]
+    return bool(steps.size > 1 and (steps.max() - steps.min()) > 0.01 * np.median(steps))
 
 
 def frame_planes(frame: av.VideoFrame) -> list[np.ndarray]:

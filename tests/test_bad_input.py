@@ -1,0 +1,124 @@
+"""Every bad input: one clear line, a non-zero exit (or 0 with a warning), input untouched."""
+
+import os
+
+import av
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from unjello.errors import InputError, UnjelloError
+from unjello.io.video import VideoReader
+from unjello.pipeline import correct_video
+
+from .clips import make_clip
+from .test_cli import _clean_failure, run
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory, scene):
+    p = tmp_path_factory.mktemp("good") / "good.mp4"
+    make_clip(p, scene, n=6)
+    return p
+
+
+def test_truncated_mp4(tmp_path, good):
+    bad = tmp_path / "trunc.mp4"
+    bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.3)])
+    line = _clean_failure(run("correct", bad, "-o", tmp_path / "o.mp4"))
+    assert "trunc.mp4" in line
+
+
+def test_audio_only(tmp_path):
+    path = tmp_path / "audio.m4a"
+    with av.open(str(path), "w") as out:
+        a = out.add_stream("aac", rate=48000)
+        for k in range(8):
+            af = av.AudioFrame.from_ndarray(np.zeros((1, 1024), np.float32), format="fltp",
+                                            layout="mono")
+            af.sample_rate, af.pts = 48000, k * 1024
+            for p in a.encode(af):
+                out.mux(p)
+        for p in a.encode():
+            out.mux(p)
+    line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mp4"))
+    assert "no video stream" in line
+
+
+def test_single_frame_copied_with_warning(tmp_path, scene):
+    src = tmp_path / "one.mp4"
+    make_clip(src, scene, n=1, audio=False)
+    res = run("correct", src, "-o", tmp_path / "o.mp4")
+    assert res.returncode == 0 and "single frame" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_odd_size(tmp_path):
+    src = tmp_path / "odd.mp4"
+    with av.open(str(src), "w") as out:
+        vs = out.add_stream("libx264", rate=30)
+        vs.width, vs.height, vs.pix_fmt = 161, 121, "yuv444p"
+        rng = np.random.default_rng(0)
+        for _ in range(4):
+            img = rng.integers(0, 255, (121, 161, 3), dtype=np.uint8)
+            for p in vs.encode(av.VideoFrame.from_ndarray(img, format="rgb24")
+                               .reformat(format="yuv444p")):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+    res = run("correct", src, "-o", tmp_path / "o.mp4", "-q")
+    assert res.returncode == 0, res.stderr
+
+
+def test_output_folder_missing(tmp_path, good):
+    line = _clean_failure(run("correct", good, "-o", tmp_path / "nope" / "o.mp4"))
+    assert "does not exist" in line
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root can write into read-only folders")
+def test_output_folder_not_writable(tmp_path, good):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    line = _clean_failure(run("correct", good, "-o", ro / "o.mp4"))
+    assert "not writable" in line
+
+
+def test_interrupt_leaves_nothing(tmp_path, good):
+    dst = tmp_path / "o.mp4"
+    before = good.read_bytes()
+
+    def stop(done, total):
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        correct_video(good, dst, progress=stop, preview=tmp_path / "p.mp4",
+                      stmap=tmp_path / "st")
+    assert not dst.exists() and not (tmp_path / "p.mp4").exists()
+    assert not (tmp_path / "st").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    assert good.read_bytes() == before
+
+
+def test_bad_preset(tmp_path, good):
+    line = _clean_failure(run("correct", good, "-o", tmp_path / "o.mp4", "--preset", "nope"))
+    assert "preset" in line
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.binary(min_size=0, max_size=4096), cut=st.floats(0.0, 1.0))
+def test_reader_fuzz(tmp_path_factory, good, data, cut):
+    # Random bytes, or a good file cut short and followed by random bytes: only clean errors.
+    d = tmp_path_factory.mktemp("fuzz")
+    head = good.read_bytes()[: int(good.stat().st_size * cut)]
+    path = d / "f.mp4"
+    path.write_bytes(head + data)
+    try:
+        with VideoReader(path) as r:
+            for _ in r.packets():
+                pass
+    except UnjelloError as exc:
+        assert isinstance(exc, InputError)
