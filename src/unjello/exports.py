@@ -10,7 +10,7 @@ import numpy as np
 from .io.frames import write_image
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory
-from .warp import field_maps, remap_maps
+from .warp import field_maps, remap_maps, resize_maps
 
 __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "stmap_to_maps", "write_stmap",
            "plot_trajectory"]
@@ -19,7 +19,7 @@ __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "stmap_to_maps", "wr
 def backward_maps(motion: FrameMotion, width: int) -> tuple[np.ndarray, np.ndarray]:
     """Source position of every output pixel (top-bottom orientation), as the warper uses."""
     if motion.field is not None:
-        return field_maps(motion.field)
+        return resize_maps(*field_maps(motion.field), motion.displacement.shape[0], width)
     return remap_maps(motion.displacement, width)
 
 

@@ -30,9 +30,9 @@ from .trajectory import FrameMotion, Trajectory
 from .warp import (
     Fill,
     WarpMode,
+    field_maps,
     remap_field,
     resample_displacement,
-    resample_field,
     warp_image,
 )
 
@@ -157,12 +157,12 @@ class Corrector:
         ref = to_top_bottom(planes[0], d)
         h, w = ref.shape[:2]
         out = []
+        maps = field_maps(motion.field) if motion.field is not None else None
         for plane in planes:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
             if motion.field is not None:
-                res, _ = remap_field(tb, resample_field(motion.field, ph, pw),
-                                     fill=self.config.fill)
+                res, _ = remap_field(tb, motion.field, fill=self.config.fill, maps=maps)
             else:
                 disp = motion.displacement if (ph, pw) == (h, w) else resample_displacement(
                     motion.displacement, ph, pw / w, ph / h)

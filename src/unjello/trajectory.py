@@ -57,10 +57,11 @@ class FrameMotion:
         False when the estimate was bridged over a failure (see ``note``).
     note : str
         Why the estimate is not a direct measurement, if so.
-    field : ndarray of shape (h, w, 2), optional
-        Per-pixel displacement for dense methods (``p = s - field[s]``); when present it
-        is what the warper applies, and ``displacement`` is its per-row median. It is
-        not stored in the JSON form (the per-scanline summary is).
+    field : ndarray of shape (hf, wf, 2), optional
+        Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
+        the full frame but possibly sampled at a lower resolution (dense motion is
+        smooth; consumers interpolate it); when present it is what the warper applies,
+        and ``displacement`` is its per-row median.
     """
 
     index: int
@@ -72,9 +73,12 @@ class FrameMotion:
     field: np.ndarray | None = None
 
     def pixel_displacement(self, width: int) -> np.ndarray:
-        """Return the per-pixel displacement, shape ``(h, width, 2)``."""
+        """Return the per-pixel displacement at full resolution, shape ``(h, width, 2)``."""
+        h = self.displacement.shape[0]
         if self.field is not None:
-            return self.field
+            if self.field.shape[:2] == (h, width):
+                return self.field
+            return cv2.resize(self.field, (width, h), interpolation=cv2.INTER_LINEAR)
         return np.broadcast_to(self.displacement[:, None, :],
                                (self.displacement.shape[0], width, 2))
 

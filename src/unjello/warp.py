@@ -30,7 +30,8 @@ import numpy as np
 from .timing import SensorTiming
 
 __all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
-           "remap", "warp_image", "fill_holes", "remap_field", "resample_field"]
+           "remap", "warp_image", "fill_holes", "remap_field", "field_maps",
+           "resize_maps", "remap_maps"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -278,15 +279,6 @@ def warp_image(image: np.ndarray, displacement: np.ndarray, *, mode: WarpMode = 
     return remap(image, displacement, fill)
 
 
-def resample_field(field: np.ndarray, height: int, width: int) -> np.ndarray:
-    """Per-pixel displacement for a plane of another resolution (e.g. 4:2:0 chroma)."""
-    h, w = field.shape[:2]
-    if (h, w) == (height, width):
-        return field
-    out = cv2.resize(field, (width, height), interpolation=cv2.INTER_LINEAR)
-    return out * np.array([width / w, height / h], dtype=np.float32)
-
-
 def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
 
@@ -317,23 +309,39 @@ def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.n
     return mx, my
 
 
-def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest"
+def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps computed at one resolution, for a plane of another (pixel centres)."""
+    h, w = map_x.shape
+    if (h, w) == (height, width):
+        return map_x, map_y
+    sx, sy = width / w, height / h
+    mx = cv2.resize(map_x, (width, height), interpolation=cv2.INTER_LINEAR)
+    my = cv2.resize(map_y, (width, height), interpolation=cv2.INTER_LINEAR)
+    return (mx + 0.5) * sx - 0.5, (my + 0.5) * sy - 0.5
+
+
+def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest",
+                maps: tuple[np.ndarray, np.ndarray] | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Dense backward warp: every pixel moved by its own eq. 26 displacement.
 
     Parameters
     ----------
-    image : ndarray of shape (h, w[, c])
+    image : ndarray of shape (H, W[, c])
     field : ndarray of shape (h, w, 2)
-        ``p = s - field(s)``.
+        ``p = s - field(s)``, possibly at a lower resolution than the image (the maps are
+        then solved at the field's resolution and interpolated: the field is smooth).
     fill : {'nearest', 'black'}
+    maps : tuple of ndarray, optional
+        Precomputed :func:`field_maps` of ``field``.
 
     Returns
     -------
     out, valid : as :func:`remap`.
     """
     h, w = image.shape[:2]
-    mx, my = field_maps(resample_field(field, h, w))
+    mx, my = resize_maps(*(maps or field_maps(field)), h, w)
     border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
     out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
     valid = (mx >= -0.5) & (mx <= w - 0.5) & (my >= -0.5) & (my <= h - 0.5)

@@ -61,8 +61,9 @@ class DenseConfig:
     ----------
     flow_preset : {'ultrafast', 'fast', 'medium'}
         DIS optical flow preset.
-    flow_width : int
-        Flow is computed on frames downscaled to at most this width, then upsampled.
+    work_width : int
+        Motion is estimated on frames downscaled to at most this width (0: full size);
+        the per-pixel field is returned at that resolution, in full-frame pixels.
     grid : int
         Camera trajectory samples per readout time.
     smoothness : float
@@ -79,7 +80,7 @@ class DenseConfig:
     """
 
     flow_preset: str = "medium"
-    flow_width: int = 960
+    work_width: int = 640
     grid: int = 64
     smoothness: float = 0.01
     window: int = 2
@@ -99,7 +100,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     preset : str
         DIS preset.
     max_width : int
-        Compute on frames downscaled to at most this width.
+        Compute on frames downscaled to at most this width (0: full size).
     finest_scale : int, optional
         DIS finest pyramid level (0 = full resolution); default the preset's.
 
@@ -109,7 +110,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         ``(dx, dy)`` in full-resolution pixels.
     """
     h, w = a.shape
-    scale = min(1.0, max_width / w)
+    scale = min(1.0, max_width / w) if max_width else 1.0
     a8 = np.clip(a, 0, 255).astype(np.uint8)
     b8 = np.clip(b, 0, 255).astype(np.uint8)
     if scale < 1.0:
@@ -302,8 +303,8 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 def pair_row_flows(prev: np.ndarray, cur: np.ndarray, config: DenseConfig = DenseConfig()
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Row flows from ``cur`` to ``prev`` (see :func:`row_flows`), with the flow check."""
-    bwd = optical_flow(cur, prev, config.flow_preset, config.flow_width, config.finest_scale)
-    fwd = optical_flow(prev, cur, config.flow_preset, config.flow_width, config.finest_scale)
+    bwd = optical_flow(cur, prev, config.flow_preset, config.work_width, config.finest_scale)
+    fwd = optical_flow(prev, cur, config.flow_preset, config.work_width, config.finest_scale)
     return row_flows(bwd, _consistent(bwd, fwd, config.consistency))
 
 
@@ -311,8 +312,13 @@ def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndar
     """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones."""
     if ok.all() or not ok.any() or sigma <= 0:
         return resid if ok.any() else np.zeros_like(resid)
-    w = cv2.GaussianBlur(ok.astype(np.float32), (0, 0), sigma)
-    num = cv2.GaussianBlur(resid * ok[..., None], (0, 0), sigma)
+    # The average is smooth: blur at a quarter of the resolution, then interpolate back.
+    h, w_ = ok.shape
+    small = (max(1, w_ // 4), max(1, h // 4))
+    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
+    numf = cv2.resize(resid * ok[..., None], small, interpolation=cv2.INTER_AREA)
+    w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
+    num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / np.maximum(w, 1e-3)[..., None]
     out = resid.copy()
     out[~ok] = np.where(w[~ok, None] > 1e-3, avg[~ok], 0.0)
@@ -348,17 +354,24 @@ class DenseMethod:
         self._frames: deque[_Frame] = deque()
         self._count = 0
         self._next_out = 0
+        self._full: tuple[int, int] = (0, 0)
 
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at time ``start``."""
-        cur = _Frame(self._count, float(start), np.asarray(frame, dtype=np.float32))
+        img = np.asarray(frame, dtype=np.float32)
+        self._full = img.shape[:2]
+        ww = self.config.work_width
+        if ww and img.shape[1] > ww:
+            size = (ww, max(8, round(img.shape[0] * ww / img.shape[1])))
+            img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+        cur = _Frame(self._count, float(start), img)
         self._count += 1
         if self._frames:
             prev = self._frames[-1]
             cfg = self.config
-            cur.bwd = optical_flow(cur.image, prev.image, cfg.flow_preset, cfg.flow_width,
+            cur.bwd = optical_flow(cur.image, prev.image, cfg.flow_preset, 0,
                                    cfg.finest_scale)
-            prev.fwd = optical_flow(prev.image, cur.image, cfg.flow_preset, cfg.flow_width,
+            prev.fwd = optical_flow(prev.image, cur.image, cfg.flow_preset, 0,
                                     cfg.finest_scale)
             cur.bwd_ok = _consistent(cur.bwd, prev.fwd, cfg.consistency)
             prev.fwd_ok = _consistent(prev.fwd, cur.bwd, cfg.consistency)
@@ -411,27 +424,30 @@ class DenseMethod:
         t_ref = self.timing.reference_time(h, fr.start)
         cam = self._camera(fr.index)
         if cam is None:
-            z = np.zeros((h, 2))
+            z = np.zeros((self._full[0], 2))
             return FrameMotion(fr.index, fr.start, z, z, ok=False,
                                note="no reliable motion: frame left as is")
         t0, step, c, u = cam
-        grid_t = t0 + step * np.arange(c.shape[0])
+        # Times relative to the frame's start, so float32 keeps sub-row precision.
+        grid_t = t0 - fr.start + step * np.arange(c.shape[0])
+        t_rows = t_rows - fr.start
+        t_ref = t_ref - fr.start
 
         def c_at(t: np.ndarray) -> np.ndarray:
             return np.stack([np.interp(t, grid_t, c[:, 0]), np.interp(t, grid_t, c[:, 1])],
-                            axis=-1)
+                            axis=-1).astype(np.float32)
 
         cam_rows = c_at(t_rows)
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
-        velocity = np.gradient(cam_rows, t_rows, axis=0) if h > 1 else np.zeros((h, 2))
+        velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
+            np.zeros((h, 2)))
         knots = np.linspace(0, 1, u.shape[0])
         frac_rows = np.arange(h) / max(h - 1, 1)
         velocity = velocity + np.stack([np.interp(frac_rows, knots, u[:, k]) for k in range(2)],
                                        axis=1)
         # Per-pixel residual of the flow on each side, relative to the camera.
-        ys = np.arange(h, dtype=np.float64)[:, None]
-        xs = np.arange(w, dtype=np.float64)[None, :]
-        t_s = np.broadcast_to(t_rows[:, None], (h, w))
+        ys = np.arange(h, dtype=np.float32)[:, None]
+        t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
         c_s = cam_rows[:, None, :]
         sides = []
         neighbours = {f.index: f for f in self._frames}
@@ -439,38 +455,46 @@ class DenseMethod:
                                 (fr.fwd, fr.fwd_ok, neighbours.get(fr.index + 1))):
             if flow is None or ok is None or other is None:
                 continue
-            t_o = other.start + rho * (ys + flow[..., 1]) / h
-            resid = flow.astype(np.float64) - (c_at(t_o) - c_s)
+            t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
+            resid = flow - (c_at(t_o) - c_s)
             sides.append((t_o, resid, ok))
-        field_resid = np.zeros((h, w, 2))
+        field_resid = np.zeros((h, w, 2), np.float32)
         fallback = np.ones((h, w), dtype=bool)
+        tr = np.float32(t_ref)
         if len(sides) == 2:
             (ta, ra, oka), (tb, rb, okb) = sides
             both = oka & okb
             # Quadratic through (ta, ra), (t_s, 0), (tb, rb) evaluated at t_ref.
-            la = ((t_ref - t_s) * (t_ref - tb)) / ((ta - t_s) * (ta - tb))
-            lb = ((t_ref - t_s) * (t_ref - ta)) / ((tb - t_s) * (tb - ta))
+            la = ((tr - t_s) * (tr - tb)) / ((ta - t_s) * (ta - tb))
+            lb = ((tr - t_s) * (tr - ta)) / ((tb - t_s) * (tb - ta))
             quad = la[..., None] * ra + lb[..., None] * rb
             field_resid[both] = quad[both]
             fallback &= ~both
             for t_o, r, ok in sides:
                 only = ok & fallback
-                lin = ((t_ref - t_s) / (t_o - t_s))[..., None] * r
+                lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
                 field_resid[only] = lin[only]
                 fallback &= ~only
         elif len(sides) == 1:
             t_o, r, ok = sides[0]
-            lin = ((t_ref - t_s) / (t_o - t_s))[..., None] * r
+            lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
             field_resid[ok] = lin[ok]
             fallback &= ~ok
-        field_resid = _fill_unreliable(field_resid.astype(np.float32), ~fallback,
-                                       self.config.fill_sigma)
+        field_resid = _fill_unreliable(field_resid, ~fallback, self.config.fill_sigma)
         for k in range(2):
-            field_resid[..., k] = cv2.medianBlur(field_resid[..., k], 5)
-        field = (cam_disp[:, None, :] - field_resid).astype(np.float32)
-        disp = np.median(field, axis=1).astype(np.float64)
+            field_resid[..., k] = cv2.medianBlur(np.ascontiguousarray(field_resid[..., k]), 5)
+        field = cam_disp[:, None, :] - field_resid
         frac = float(fallback.mean())
         note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
             frac > 0.05) else ""
-        del xs
-        return FrameMotion(fr.index, fr.start, disp, velocity, ok=True, note=note, field=field)
+        # Back to the full frame: field in full-frame pixels, per-row values per full row.
+        full_h, full_w = self._full
+        scale = np.array([full_w / w, full_h / h], dtype=np.float32)
+        field *= scale
+        rows_full = (np.arange(full_h) + 0.5) * h / full_h - 0.5
+        med = np.median(field, axis=1)
+        disp = np.stack([np.interp(rows_full, np.arange(h), med[:, k]) for k in range(2)],
+                        axis=1)
+        vel = np.stack([np.interp(rows_full, np.arange(h), velocity[:, k]) for k in range(2)],
+                       axis=1) * scale
+        return FrameMotion(fr.index, fr.start, disp, vel, ok=True, note=note, field=field)
