@@ -352,6 +352,60 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
 
 
 @cli.command()
+@click.argument("inputs", nargs=-1, required=True)
+@click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
+              help="Output folder; outputs are named after the inputs.")
+@_timing_options
+@click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
+              show_default=True)
+@click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
+              show_default=True)
+@click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
+              show_default=True)
+@click.option("--codec", default="libx264", show_default=True)
+@click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
+@click.option("--x264-preset", default="medium", show_default=True)
+@click.option("--executor", "kind", type=click.Choice(["local", "dask", "ray"]),
+              default="local", show_default=True,
+              help="Local process pool, or an existing/local Dask or Ray cluster.")
+@click.option("--address", help="Dask scheduler or Ray cluster address (default: local).")
+@click.option("--workers", type=click.IntRange(1, 4096), help="Local workers (default: cores).")
+@click.option("--report", type=click.Path(path_type=Path),
+              help="JSON-lines report (default OUT_DIR/unjello-batch.jsonl).")
+@click.option("-y", "--overwrite", is_flag=True, help="Redo clips whose output exists.")
+@click.option("-q", "--quiet", is_flag=True)
+def batch(inputs: tuple[str, ...], out_dir: Path, readout: str, direction: str,
+          reference: str, method: str, warp: str, fill: str, codec: str, crf: int,
+          x264_preset: str, kind: str, address: str | None, workers: int | None,
+          report: Path | None, overwrite: bool, quiet: bool) -> None:
+    """Correct many clips (files, folders, globs) into OUT_DIR; resumable."""
+    from .batch import run_batch
+    from .pipeline import CorrectionConfig
+
+    if readout.strip().lower() != "auto":
+        parse_readout(readout, 30.0)
+    options = {"readout": readout, "direction": direction, "reference": reference,
+               "config": CorrectionConfig(method=method, warp=warp,  # type: ignore[arg-type]
+                                          fill=fill),  # type: ignore[arg-type]
+               "encode": EncodeOptions(codec, crf, x264_preset)}
+
+    def show(row: dict) -> None:
+        if not quiet:
+            extra = f" ({row['error']})" if row["error"] else ""
+            click.echo(f"{row['status']:8} {row['input']} {row['seconds']:.1f} s{extra}",
+                       err=True)
+
+    rows = run_batch(inputs, out_dir, kind=kind, address=address, workers=workers,
+                     overwrite=overwrite, report=report, options=options, on_result=show)
+    failed = sum(r["status"] == "failed" for r in rows)
+    done = sum(r["status"] == "ok" for r in rows)
+    skipped = sum(r["status"] == "skipped" for r in rows)
+    click.echo(f"{done} corrected, {skipped} skipped, {failed} failed", err=True)
+    if failed:
+        sys.exit(1)
+
+
+@cli.command()
 @click.argument("motion", type=click.Path(path_type=Path))
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               help="Image to write (PNG).")

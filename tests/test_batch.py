@@ -1,0 +1,59 @@
+import json
+
+import pytest
+
+from unjello.batch import expand_inputs, run_batch
+from unjello.errors import InputError
+
+from .clips import make_clip
+from .test_cli import run
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory, scene):
+    d = tmp_path_factory.mktemp("clips")
+    for i in range(3):
+        make_clip(d / f"clip{i}.mp4", scene, n=4, size=(128, 96), audio=False, speed=4 + i)
+    (d / "broken.mp4").write_text("not a video")
+    return d
+
+
+def test_expand_inputs(clips, tmp_path):
+    found = expand_inputs([clips])
+    assert [p.name for p in found] == ["broken.mp4", "clip0.mp4", "clip1.mp4", "clip2.mp4"]
+    assert len(expand_inputs([str(clips / "clip*.mp4")])) == 3
+    with pytest.raises(InputError):
+        expand_inputs([str(tmp_path / "*.mp4")])
+
+
+def test_local_batch_resumable_and_reports_failures(clips, tmp_path):
+    out = tmp_path / "out"
+    rows = run_batch([clips], out, kind="local", workers=2)
+    status = {r["input"].rsplit("/", 1)[1]: r["status"] for r in rows}
+    assert status == {"broken.mp4": "failed", "clip0.mp4": "ok", "clip1.mp4": "ok",
+                      "clip2.mp4": "ok"}
+    assert sorted(p.name for p in out.glob("*.mp4")) == ["clip0.mp4", "clip1.mp4",
+                                                         "clip2.mp4"]
+    lines = [json.loads(x) for x in (out / "unjello-batch.jsonl").read_text().splitlines()]
+    assert len(lines) == 4 and all("seconds" in x and "readout" in x for x in lines)
+    again = run_batch([clips], out, kind="local", workers=2)
+    assert sorted(r["status"] for r in again) == ["failed", "skipped", "skipped", "skipped"]
+
+
+def test_dask_batch(clips, tmp_path):
+    pytest.importorskip("distributed")
+    rows = run_batch([str(clips / "clip*.mp4")], tmp_path / "out", kind="dask", workers=2)
+    assert [r["status"] for r in rows] == ["ok", "ok", "ok"]
+
+
+def test_ray_batch(clips, tmp_path):
+    pytest.importorskip("ray")
+    rows = run_batch([str(clips / "clip0.mp4")], tmp_path / "out", kind="ray", workers=1)
+    assert [r["status"] for r in rows] == ["ok"]
+
+
+def test_batch_cli_exit_code(clips, tmp_path):
+    res = run("batch", clips, "-o", tmp_path / "out", "--workers", "2")
+    assert res.returncode == 1
+    assert "3 corrected, 0 skipped, 1 failed" in res.stderr
+    assert "Traceback" not in res.stderr
