@@ -7,6 +7,7 @@ a handful of frames are held, however long the clip.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 import uuid
@@ -21,12 +22,12 @@ import numpy as np
 
 from .errors import InputError, OutputError, SettingsError
 from .io.frames import list_frames, read_image, write_image
-from .io.video import EncodeOptions, VideoReader, VideoWriter
+from .io.video import EncodeOptions, ThreadedWriter, VideoReader, VideoWriter
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.paper import PaperConfig, PaperMethod
 from .readout import ReadoutEstimate, estimate_readout
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
-from .trajectory import FrameMotion, Trajectory
+from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import (
     Fill,
     WarpMode,
@@ -398,7 +399,8 @@ def correct_video(
     Returns
     -------
     Trajectory
-        The estimated motion.
+        The estimated motion, per scanline (dense per-pixel fields are not kept in
+        memory for a whole clip; ``motion_out`` stores them).
 
     Raises
     ------
@@ -412,12 +414,13 @@ def correct_video(
         if extra is not None and Path(extra).exists() and not overwrite:
             raise OutputError(f"{extra} exists; pass -y to overwrite it")
     given = Trajectory.load(motion_in) if motion_in is not None else None
+    extras_motion = Path(motion_out) if motion_out is not None else None
     if given is not None:
         readout, direction, reference = (given.timing.readout, given.timing.direction,
                                          given.timing.reference)
     else:
         readout = _resolve_readout(src_p, readout, direction, log)
-    extras = _Extras(preview, stmap, overwrite, encode)
+    extras = _Extras(preview, stmap, overwrite, encode, extras_motion)
     if src_p.is_dir():
         traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress,
                                given, extras)
@@ -426,8 +429,6 @@ def correct_video(
                              progress, given, extras)
     if log and len(traj) == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
-    if motion_out is not None:
-        traj.save(motion_out)
     return traj
 
 
@@ -438,7 +439,10 @@ class _Extras:
     """Optional side outputs written while correcting: preview video and STMaps."""
 
     def __init__(self, preview: str | os.PathLike | None, stmap: str | os.PathLike | None,
-                 overwrite: bool, encode: EncodeOptions) -> None:
+                 overwrite: bool, encode: EncodeOptions, motion_out: Path | None = None
+                 ) -> None:
+        self.motion_out = motion_out
+        self._motion: TrajectoryWriter | None = None
         self.preview = Path(preview) if preview is not None else None
         self.stmap = Path(stmap) if stmap is not None else None
         self.overwrite = overwrite
@@ -448,7 +452,9 @@ class _Extras:
         self._writer: VideoWriter | None = None
         self._preview_tmp: Path | None = None
 
-    def start(self, fps: float, reader: VideoReader | None = None) -> None:
+    def start(self, fps: float, traj: Trajectory, reader: VideoReader | None = None) -> None:
+        if self.motion_out is not None:
+            self._motion = TrajectoryWriter(self.motion_out, traj)
         if self.stmap is not None:
             self._stmap_tmp = _temp_path(self.stmap)
             self._stmap_tmp.mkdir()
@@ -465,6 +471,8 @@ class _Extras:
 
     def frame(self, before: list[np.ndarray], after: list[np.ndarray], fm: FrameMotion,
               timing: SensorTiming, pts: int | None = None) -> None:
+        if self._motion is not None:
+            self._motion.write(fm)
         if self._stmap_tmp is not None:
             from .exports import write_stmap
 
@@ -478,6 +486,8 @@ class _Extras:
             self._sink.write(side_by_side(_rgb8(before[0]), _rgb8(after[0]), ("input", "unjello")))
 
     def finish(self) -> None:
+        if self._motion is not None:
+            self._motion.close()
         if self._writer is not None and self._preview_tmp is not None and self.preview:
             self._writer.close()
             _replace(self._preview_tmp, self.preview)
@@ -487,6 +497,8 @@ class _Extras:
             _replace(self._stmap_tmp, self.stmap)
 
     def abort(self) -> None:
+        if self._motion is not None:
+            self._motion.abort()
         if self._writer is not None:
             self._writer.abort()
         if self._sink is not None:
@@ -496,6 +508,11 @@ class _Extras:
                 shutil.rmtree(tmp, ignore_errors=True)
             elif tmp is not None and tmp.exists():
                 tmp.unlink()
+
+
+def _light(fm: FrameMotion) -> FrameMotion:
+    """Drop the per-pixel field of a frame kept for the whole clip (flat memory)."""
+    return fm if fm.field is None else dataclasses.replace(fm, field=None)
 
 
 def _replace(tmp: Path, dst: Path) -> None:
@@ -556,14 +573,14 @@ def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, 
         names = iter(files)
         inputs: deque[np.ndarray] = deque()
         done = 0
-        extras.start(30.0)
+        extras.start(30.0, traj)
 
         def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
             nonlocal done
             for planes, fm in items:
                 write_image(tmp / next(names).name, planes[0])
                 extras.frame([inputs.popleft()], planes, fm, timing)
-                traj.frames.append(fm)
+                traj.frames.append(_light(fm))
                 done += 1
                 if progress:
                     progress(done, len(files))
@@ -598,7 +615,7 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
         traj = Trajectory(timing, (info.width, info.height),
                           method=given.method if given else config.method)
         tmp = _temp_path(dst)
-        writer = VideoWriter.like(tmp, reader, encode)
+        writer = ThreadedWriter(VideoWriter.like(tmp, reader, encode))
         extras = extras or _Extras(None, None, False, encode)
         pts_queue: deque[int | None] = deque()
         inputs: deque[list[np.ndarray]] = deque()
@@ -606,14 +623,14 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
         first_pts: int | None = None
         n = 0
         try:
-            extras.start(info.fps, reader)
+            extras.start(info.fps, traj, reader)
 
             def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
                 for planes, fm in items:
                     pts = pts_queue.popleft()
                     writer.write(planes, pts)
                     extras.frame(inputs.popleft(), planes, fm, timing, pts)
-                    traj.frames.append(fm)
+                    traj.frames.append(_light(fm))
                     if progress:
                         progress(writer.frames_written, info.frames)
 

@@ -33,7 +33,7 @@ import numpy as np
 from .errors import InputError
 from .timing import SensorTiming
 
-__all__ = ["FrameMotion", "Trajectory", "SCHEMA_VERSION"]
+__all__ = ["FrameMotion", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
 FIELD_STEP = 8
@@ -200,3 +200,43 @@ class Trajectory:
     def extend(self, frames: Iterable[FrameMotion]) -> None:
         """Append frames."""
         self.frames.extend(frames)
+
+
+class TrajectoryWriter:
+    """Write a trajectory JSON frame by frame (constant memory), atomically.
+
+    Produces the same document as :meth:`Trajectory.save`.
+
+    Parameters
+    ----------
+    path : path-like
+        Destination; written under a temporary name until :meth:`close`.
+    header : Trajectory
+        Supplies the method, timing and size (its frames are ignored).
+    """
+
+    def __init__(self, path: str | os.PathLike, header: Trajectory) -> None:
+        self.path = Path(path)
+        self._tmp = self.path.with_name(f".{self.path.name}.tmp{os.getpid()}")
+        doc = header.to_json()
+        doc["frames"] = []
+        text = json.dumps(doc)
+        self._f = self._tmp.open("w")
+        self._f.write(text[:-2])  # up to "frames": [
+        self._n = 0
+
+    def write(self, frame: FrameMotion) -> None:
+        """Append one frame."""
+        self._f.write(("," if self._n else "") + json.dumps(frame.to_dict()))
+        self._n += 1
+
+    def close(self) -> None:
+        """Finish the document and move it into place."""
+        self._f.write("]}")
+        self._f.close()
+        os.replace(self._tmp, self.path)
+
+    def abort(self) -> None:
+        """Drop the partial file."""
+        self._f.close()
+        self._tmp.unlink(missing_ok=True)

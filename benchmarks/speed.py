@@ -1,0 +1,168 @@
+"""Speed and memory of `unjello correct` against a plain transcode, measured in one run.
+
+1. Builds a 1080p30 rolling-shutter clip (hand-shake motion over a photo, 300 frames
+   by default) with the simulator, plus an AAC audio track.
+2. T0: a plain PyAV transcode of it (decode -> encode with unjello's default codec,
+   CRF and preset, audio copied). T1: `unjello correct` (default method) on the same
+   clip; and `--method paper` on its first 30 frames (reported per frame).
+3. The correction stage alone (frames in memory, motion + warp): frames per second,
+   and the top lines of a cProfile of it.
+4. Peak resident memory of `unjello correct` (a child process) on 100 and 1000 frames
+   at 640x360, and on a 4K (3840x2160) clip.
+
+Usage::
+
+    python benchmarks/speed.py [--frames 300] [--skip-memory]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import pstats
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import av
+import numpy as np
+from skimage import data
+
+from unjello.io.video import EncodeOptions, VideoReader, VideoWriter
+from unjello.pipeline import correct_frames
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming
+
+
+def build_clip(path: Path, frames: int, size: tuple[int, int], fps: int = 30) -> None:
+    """Write a simulated rolling-shutter clip with a sine audio track."""
+    with av.open(str(path), "w") as out:
+        vs = out.add_stream("libx264", rate=fps)
+        vs.width, vs.height = size
+        vs.pix_fmt = "yuv420p"
+        vs.options = {"crf": "18", "preset": "veryfast"}
+        ast = out.add_stream("aac", rate=48000)
+        sim = simulate(data.astronaut(), Motion("shake", fps=fps, amplitude=2.0),
+                       SensorTiming(0.9), frames, size=size)
+        for i, s in enumerate(sim):
+            for p in vs.encode(av.VideoFrame.from_ndarray(s.rolling, format="rgb24")):
+                out.mux(p)
+            n = 48000 // fps
+            t = (np.arange(n) + i * n) / 48000
+            af = av.AudioFrame.from_ndarray((0.1 * np.sin(2 * np.pi * 440 * t))[None]
+                                            .astype(np.float32), format="fltp", layout="mono")
+            af.sample_rate, af.pts = 48000, i * n
+            for p in ast.encode(af):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+        for p in ast.encode():
+            out.mux(p)
+
+
+def transcode(src: Path, dst: Path) -> None:
+    """Plain decode -> encode with unjello's default encoder settings, audio copied."""
+    with VideoReader(src) as reader:
+        writer = VideoWriter.like(dst, reader, EncodeOptions())
+        for kind, item, pts in reader.packets():
+            if kind == "audio":
+                writer.copy_audio(item)  # type: ignore[arg-type]
+            else:
+                writer.write(item, pts)  # type: ignore[arg-type]
+        writer.close()
+
+
+def cut(src: Path, dst: Path, frames: int) -> None:
+    with VideoReader(src) as reader:
+        writer = VideoWriter.like(dst, reader, EncodeOptions(preset="veryfast"))
+        n = 0
+        for kind, item, pts in reader.packets():
+            if kind == "video":
+                writer.write(item, pts)  # type: ignore[arg-type]
+                n += 1
+                if n >= frames:
+                    break
+        writer.close()
+
+
+def timed(cmd: list[str]) -> tuple[float, float]:
+    """Run a command; return (seconds, peak RSS of the child in MB)."""
+    t0 = time.perf_counter()
+    res = subprocess.run(["/usr/bin/env", "python3", "-c",
+                          "import resource,subprocess,sys;"
+                          "r=subprocess.run(sys.argv[1:]);"
+                          "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss);"
+                          "sys.exit(r.returncode)", *cmd], capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    if res.returncode != 0:
+        raise SystemExit(f"failed: {' '.join(cmd)}\n{res.stderr}")
+    return seconds, int(res.stdout.strip().splitlines()[-1]) / 1024.0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=300)
+    ap.add_argument("--skip-memory", action="store_true")
+    args = ap.parse_args()
+    unjello = [sys.executable, "-m", "unjello"]
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        clip = d / "clip1080.mp4"
+        t = time.perf_counter()
+        build_clip(clip, args.frames, (1920, 1080))
+        print(f"built {args.frames} frames of 1920x1080 at 30 fps in "
+              f"{time.perf_counter() - t:.0f} s", flush=True)
+        t = time.perf_counter()
+        transcode(clip, d / "t0.mp4")
+        t0 = time.perf_counter() - t
+        t1, rss1 = timed([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"), "-q"])
+        print(f"T0 plain transcode (libx264 CRF 18 medium, audio copied): {t0:.1f} s "
+              f"({args.frames / t0:.1f} fps)")
+        print(f"T1 unjello correct (dense):                          {t1:.1f} s "
+              f"({args.frames / t1:.1f} fps), T1/T0 = {t1 / t0:.2f}, peak RSS {rss1:.0f} MB",
+              flush=True)
+        short = d / "clip30.mp4"
+        cut(clip, short, 30)
+        tp, _ = timed([*unjello, "correct", str(short), "-o", str(d / "tp.mp4"), "-q",
+                       "--method", "paper"])
+        print(f"unjello correct --method paper, first 30 frames:     {tp:.1f} s "
+              f"({tp / 30:.2f} s/frame; {tp / 30 / (t0 / args.frames):.1f}x the transcode's "
+              "time per frame)", flush=True)
+        # Correction stage alone.
+        with VideoReader(short) as r:
+            frames = [fr for fr in r.rgb_frames()]
+        timing = SensorTiming(0.9)
+        correct_frames(frames[:3], timing)
+        t = time.perf_counter()
+        correct_frames(frames, timing)
+        stage = time.perf_counter() - t
+        print(f"correction stage alone (dense, RGB frames in memory, 1080p): "
+              f"{len(frames) / stage:.1f} fps", flush=True)
+        prof = cProfile.Profile()
+        prof.enable()
+        correct_frames(frames[:12], timing)
+        prof.disable()
+        s = io.StringIO()
+        pstats.Stats(prof, stream=s).sort_stats("tottime").print_stats(10)
+        print("profile of the correction stage (cProfile, by own time):")
+        print("\n".join(ln for ln in s.getvalue().splitlines()[4:] if ln.strip())[:3000])
+        if args.skip_memory:
+            return
+        for n in (100, 1000):
+            small = d / f"m{n}.mp4"
+            build_clip(small, n, (640, 360))
+            sec, rss = timed([*unjello, "correct", str(small), "-o", str(d / f"o{n}.mp4"),
+                              "-q", "--x264-preset", "veryfast"])
+            print(f"peak RSS, 640x360, {n:4d} frames: {rss:.0f} MB ({sec:.0f} s)", flush=True)
+        k4 = d / "k4.mp4"
+        build_clip(k4, 20, (3840, 2160))
+        sec, rss = timed([*unjello, "correct", str(k4), "-o", str(d / "ok4.mp4"), "-q"])
+        print(f"peak RSS, 3840x2160, 20 frames: {rss:.0f} MB ({sec:.0f} s, "
+              f"{20 / sec:.2f} fps)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
