@@ -13,8 +13,10 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .errors import InputError, OutputError, SettingsError, UnjelloError
+from .batch import run_batch
+from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
 from .io.video import EncodeOptions
+from .motion.dense import DenseConfig, DenseMethod
 from .motion.global_motion import BlockMatchConfig
 from .motion.paper import PaperConfig, PaperMethod
 from .motion.refine import RefineConfig
@@ -24,9 +26,11 @@ from .pipeline import (
     correct,
     correct_frames,
     correct_video,
+    estimate_readout_file,
     evaluate,
     simulate_clip,
 )
+from .readout import ReadoutEstimate, estimate_readout, readout_from_flicker
 from .simulate import Motion, simulate
 from .timing import SensorTiming, parse_readout
 from .trajectory import FrameMotion, Trajectory
@@ -36,13 +40,17 @@ __all__ = [
     "BlockMatchConfig",
     "CorrectionConfig",
     "Corrector",
+    "DenseConfig",
+    "DenseMethod",
     "EncodeOptions",
     "FrameMotion",
     "InputError",
+    "MissingExtraError",
     "Motion",
     "OutputError",
     "PaperConfig",
     "PaperMethod",
+    "ReadoutEstimate",
     "RefineConfig",
     "SensorTiming",
     "SettingsError",
@@ -51,8 +59,12 @@ __all__ = [
     "correct",
     "correct_frames",
     "correct_video",
+    "estimate_readout",
+    "estimate_readout_file",
     "evaluate",
     "parse_readout",
+    "readout_from_flicker",
+    "run_batch",
     "simulate",
     "simulate_clip",
 ]

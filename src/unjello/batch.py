@@ -26,11 +26,11 @@ from typing import Any
 
 from .errors import InputError, MissingExtraError, SettingsError, UnjelloError
 from .io.frames import IMAGE_SUFFIXES
+from .io.video import VIDEO_SUFFIXES
 
 __all__ = ["expand_inputs", "output_for", "run_job", "executor", "run_batch", "EXECUTORS"]
 
 EXECUTORS = ("local", "dask", "ray")
-VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm", ".mts", ".m2ts")
 
 
 def expand_inputs(inputs: Sequence[str | os.PathLike]) -> list[Path]:

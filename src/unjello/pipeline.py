@@ -22,7 +22,13 @@ import numpy as np
 
 from .errors import InputError, OutputError, SettingsError
 from .io.frames import list_frames, read_image, write_image
-from .io.video import EncodeOptions, ThreadedWriter, VideoReader, VideoWriter
+from .io.video import (
+    VIDEO_SUFFIXES,
+    EncodeOptions,
+    ThreadedWriter,
+    VideoReader,
+    VideoWriter,
+)
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.paper import PaperConfig, PaperMethod
 from .readout import ReadoutEstimate, estimate_readout
@@ -661,7 +667,6 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
     return traj
 
 
-VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm")
 
 
 class FrameSink:

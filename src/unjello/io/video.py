@@ -23,7 +23,9 @@ import numpy as np
 from ..errors import InputError, OutputError
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
-           "EncodeOptions", "variable_rate"]
+           "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES"]
+
+VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm", ".mts", ".m2ts")
 
 _PLANAR = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p",
            "yuv420p10le", "yuv422p10le", "yuv444p10le"}
