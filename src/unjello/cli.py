@@ -28,11 +28,12 @@ __all__ = ["main", "cli"]
 PRESETS: dict[str, dict[str, Any]] = {
     # The paper's own output: its method, forward splatting, black where nothing lands.
     "paper-figures": {"method": "paper", "warp": "splat", "fill": "black"},
-    # Quick look: faster encoder, default motion.
-    "fast": {"x264_preset": "veryfast", "crf": 20},
+    # Faster: the DIS "fast" flow preset and a faster encoder (measured on the pairs:
+    # about 0.3 dB below the default).
+    "fast": {"flow_preset": "fast", "x264_preset": "veryfast"},
 }
 _PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
-                "codec", "crf", "x264_preset")
+                "flow_preset", "work_width", "codec", "crf", "x264_preset")
 
 
 def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
@@ -128,6 +129,11 @@ def cli() -> None:
               show_default=True, help="What fills the area no scanline reaches.")
 @click.option("--search", type=click.IntRange(1, 1000), default=160, show_default=True,
               help="Global block-matching search range, px (paper: 160).")
+@click.option("--flow-preset", type=click.Choice(["ultrafast", "fast", "medium"]),
+              default="medium", show_default=True,
+              help="Dense method: DIS optical flow preset (speed vs accuracy).")
+@click.option("--work-width", type=click.IntRange(0, 100000), default=640, show_default=True,
+              help="Dense method: estimate motion on frames at most this wide (0: full).")
 @click.option("--motion-out", type=click.Path(path_type=Path),
               help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
 @click.option("--motion-in", type=click.Path(path_type=Path),
@@ -147,7 +153,8 @@ def cli() -> None:
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def correct(input: Path, output: Path, readout: str, direction: str, reference: str,
-            method: str, warp: str, fill: str, search: int, motion_out: Path | None,
+            method: str, warp: str, fill: str, search: int, flow_preset: str,
+            work_width: int, motion_out: Path | None,
             motion_in: Path | None, preview: Path | None, stmap: Path | None,
             preset: str | None, as_json: bool, codec: str, crf: int, x264_preset: str,
             overwrite: bool, quiet: bool) -> None:
@@ -164,9 +171,14 @@ def correct(input: Path, output: Path, readout: str, direction: str, reference: 
             "reference"]
         method, warp, fill, search = (values["method"], values["warp"], values["fill"],
                                       values["search"])
+        flow_preset, work_width = values["flow_preset"], values["work_width"]
         codec, crf, x264_preset = values["codec"], values["crf"], values["x264_preset"]
+    from .motion.dense import DenseConfig
+
     config = CorrectionConfig(method=method, warp=warp, fill=fill,  # type: ignore[arg-type]
-                              paper=PaperConfig(BlockMatchConfig(search=search)))
+                              paper=PaperConfig(BlockMatchConfig(search=search)),
+                              dense=DenseConfig(flow_preset=flow_preset,
+                                                work_width=work_width))
     if str(readout).strip().lower() != "auto" and not input.is_dir():
         parse_readout(str(readout), 30.0)  # validate early, before opening anything
     messages: list[str] = []
