@@ -128,7 +128,7 @@ def main() -> None:
               flush=True)
         tf, _ = timed([*unjello, "correct", str(clip), "-o", str(d / "tf.mp4"), "-q",
                        "--preset", "fast"])
-        print(f"T1 unjello correct --preset fast (DIS fast, x264 veryfast): {tf:.1f} s "
+        print(f"T1 unjello correct --preset fast (DIS fast flow):     {tf:.1f} s "
               f"({args.frames / tf:.1f} fps), T1/T0 = {tf / t0:.2f}", flush=True)
         npf = args.paper_frames
         short = d / "clip_paper.mp4"
