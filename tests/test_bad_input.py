@@ -122,3 +122,43 @@ def test_reader_fuzz(tmp_path_factory, good, data, cut):
                 pass
     except UnjelloError as exc:
         assert isinstance(exc, InputError)
+
+
+def test_video_with_zero_frames(tmp_path):
+    path = tmp_path / "zero.mkv"
+    with av.open(str(path), "w") as out:
+        vs = out.add_stream("mpeg4", rate=30)
+        vs.width, vs.height, vs.pix_fmt = 160, 120, "yuv420p"
+        a = out.add_stream("aac", rate=48000)
+        for k in range(4):
+            af = av.AudioFrame.from_ndarray(np.zeros((1, 1024), np.float32), format="fltp",
+                                            layout="mono")
+            af.sample_rate, af.pts = 48000, k * 1024
+            for p in a.encode(af):
+                out.mux(p)
+        for p in a.encode():
+            out.mux(p)
+    line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mkv"))
+    assert "no frames" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["zero.mkv"]
+
+
+def test_ctrl_c_removes_partial_output(tmp_path, scene):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    src = tmp_path / "long.mp4"
+    make_clip(src, scene, n=60, size=(320, 240), audio=False)
+    proc = subprocess.Popen([sys.executable, "-m", "unjello", "correct", str(src), "-o",
+                             str(tmp_path / "o.mp4"), "-q"], stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(tmp_path.glob(".o.unjello-*")):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["long.mp4"]
