@@ -93,10 +93,11 @@ def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | 
 
 
 def _readout_option(f: Callable) -> Callable:
-    return click.option("--readout", default="1.0", show_default=True,
+    return click.option("--readout", default=None,
                         help="Readout time: fraction of the frame interval (0 < r <= 1), "
-                             "milliseconds (15.7ms), or 'auto' (estimated from the "
-                             "motion).")(f)
+                             "milliseconds (15.7ms), or 'auto' (stated by the file, else "
+                             "estimated from the motion). Default: what a sidecar or the "
+                             "file's metadata states, else 1.0.")(f)
 
 
 def _timing_options(f: Callable) -> Callable:
@@ -152,7 +153,7 @@ def cli() -> None:
               help="Encoder speed/size preset (ultrafast ... veryslow).")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def correct(input: Path, output: Path, readout: str, direction: str, reference: str,
+def correct(input: Path, output: Path, readout: str | None, direction: str, reference: str,
             method: str, warp: str, fill: str, search: int, flow_preset: str,
             work_width: int, motion_out: Path | None,
             motion_in: Path | None, preview: Path | None, stmap: Path | None,
@@ -179,7 +180,7 @@ def correct(input: Path, output: Path, readout: str, direction: str, reference: 
                               paper=PaperConfig(BlockMatchConfig(search=search)),
                               dense=DenseConfig(flow_preset=flow_preset,
                                                 work_width=work_width))
-    if str(readout).strip().lower() != "auto" and not input.is_dir():
+    if readout is not None and str(readout).strip().lower() != "auto" and not input.is_dir():
         parse_readout(str(readout), 30.0)  # validate early, before opening anything
     messages: list[str] = []
 
@@ -289,7 +290,7 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
 @click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
 @click.option("-y", "--overwrite", is_flag=True)
 def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None, motion: str,
-             readout: str, direction: str, reference: str, frames: int, fps: float | None,
+             readout: str | None, direction: str, reference: str, frames: int, fps: float | None,
              size: str | None, speed: float, amplitude: float, exposure: float, crf: int,
              overwrite: bool) -> None:
     """Render a rolling-shutter clip and its truth from an image or a GS video."""
@@ -303,8 +304,8 @@ def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None,
             wh = (w, h)
         except ValueError:
             raise SettingsError(f"--size must look like 640x480, got {size!r}") from None
-    timing = SensorTiming(parse_readout(readout, fps or 30.0), direction,  # type: ignore[arg-type]
-                          reference)  # type: ignore[arg-type]
+    timing = SensorTiming(parse_readout(readout or "1.0", fps or 30.0),  # type: ignore[arg-type]
+                          direction, reference)  # type: ignore[arg-type]
     simulate_clip(source, output, truth, motion=motion, timing=timing, frames=frames, fps=fps,
                   size=wh, speed=speed, amplitude=amplitude, exposure=exposure,
                   overwrite=overwrite, truth_motion=truth_motion,
@@ -386,7 +387,7 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
               help="JSON-lines report (default OUT_DIR/unjello-batch.jsonl).")
 @click.option("-y", "--overwrite", is_flag=True, help="Redo clips whose output exists.")
 @click.option("-q", "--quiet", is_flag=True)
-def batch(inputs: tuple[str, ...], out_dir: Path, readout: str, direction: str,
+def batch(inputs: tuple[str, ...], out_dir: Path, readout: str | None, direction: str,
           reference: str, method: str, warp: str, fill: str, codec: str, crf: int,
           x264_preset: str, kind: str, address: str | None, workers: int | None,
           report: Path | None, overwrite: bool, quiet: bool) -> None:
@@ -394,7 +395,7 @@ def batch(inputs: tuple[str, ...], out_dir: Path, readout: str, direction: str,
     from .batch import run_batch
     from .pipeline import CorrectionConfig
 
-    if readout.strip().lower() != "auto":
+    if readout is not None and readout.strip().lower() != "auto":
         parse_readout(readout, 30.0)
     options = {"readout": readout, "direction": direction, "reference": reference,
                "config": CorrectionConfig(method=method, warp=warp,  # type: ignore[arg-type]

@@ -31,7 +31,7 @@ from .io.video import (
 )
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.paper import PaperConfig, PaperMethod
-from .readout import ReadoutEstimate, estimate_readout
+from .readout import ReadoutEstimate, estimate_readout, stated_readout
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
 from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import (
@@ -335,11 +335,23 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
     return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback)
 
 
-def _resolve_readout(src: Path, readout: float | str, direction: str,
+def _resolve_readout(src: Path, readout: float | str | None, direction: str,
                      log: Callable[[str], None] | None) -> float | str:
-    """Turn ``'auto'`` into a number, saying what was found."""
-    if not (isinstance(readout, str) and readout.strip().lower() == "auto"):
+    """Turn ``None`` (not given) and ``'auto'`` into a readout, saying where it came from.
+
+    ``None``: the readout stated by a sidecar or the file's metadata, else 1.0. ``'auto'``:
+    the stated one, else the estimate from the motion. Anything else is used as given.
+    """
+    is_auto = isinstance(readout, str) and readout.strip().lower() == "auto"
+    if readout is not None and not is_auto:
         return readout
+    stated = stated_readout(src)
+    if stated is not None:
+        if log:
+            log(f"readout {stated.milliseconds:g} ms from the {stated.source}")
+        return f"{stated.milliseconds}ms"
+    if not is_auto:
+        return 1.0
     est = estimate_readout_file(src, direction=direction)
     if log:
         if est.reliable:
@@ -355,7 +367,7 @@ def correct_video(
     src: str | os.PathLike,
     dst: str | os.PathLike,
     *,
-    readout: float | str = 1.0,
+    readout: float | str | None = None,
     direction: str = "top-bottom",
     reference: str = "middle",
     config: CorrectionConfig = CorrectionConfig(),
@@ -377,9 +389,11 @@ def correct_video(
     dst : path-like
         Output video file, or (for a folder input) output folder receiving the corrected
         frames under the same names.
-    readout : float or str
-        Readout as a fraction of the frame interval, ``"15.7ms"``, or ``"auto"`` to
-        estimate it from the motion (:func:`estimate_readout_file`).
+    readout : float or str, optional
+        Readout as a fraction of the frame interval, ``"15.7ms"``, or ``"auto"``. Not
+        given: the readout a sidecar or the file's metadata states
+        (:func:`unjello.readout.stated_readout`), else 1.0. ``"auto"``: the stated one,
+        else estimated from the motion (:func:`estimate_readout_file`).
     direction, reference : str
         See :class:`~unjello.timing.SensorTiming`.
     config : CorrectionConfig

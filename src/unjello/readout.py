@@ -27,8 +27,10 @@ low confidence.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -38,7 +40,7 @@ from .errors import InputError
 from .timing import to_top_bottom
 
 __all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "ReadoutEstimate",
-           "estimate_readout"]
+           "estimate_readout", "StatedReadout", "stated_readout"]
 
 
 @dataclass(frozen=True)
@@ -273,3 +275,107 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     reliable = confidence >= min_confidence
     return ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
                            confidence, reliable, candidates, costs)
+
+
+@dataclass(frozen=True)
+class StatedReadout:
+    """A readout time stated by the file or a sidecar.
+
+    Attributes
+    ----------
+    milliseconds : float
+    source : str
+        Where it was found (for the user).
+    """
+
+    milliseconds: float
+    source: str
+
+
+def _find_readout_key(obj: object, depth: int = 0) -> float | None:
+    """First numeric value under a key naming the readout time (ms), in nested data."""
+    if depth > 6:
+        return None
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            key = str(k).lower().replace(" ", "_")
+            if "readout" in key and not isinstance(v, (dict, list)):
+                try:
+                    value = float(str(v).lower().replace("ms", "").strip())
+                except ValueError:
+                    continue
+                if "us" in key or "micro" in key:
+                    value /= 1000.0
+                if value > 0:
+                    return value
+        for v in obj.values():
+            found = _find_readout_key(v, depth + 1)
+            if found is not None:
+                return found
+    elif isinstance(obj, list):
+        for v in obj[:50]:
+            found = _find_readout_key(v, depth + 1)
+            if found is not None:
+                return found
+    return None
+
+
+def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
+    """Readout time stated for a video by a sidecar file or its metadata, if any.
+
+    Looked up, in order:
+
+    1. A JSON sidecar beside the video -- ``NAME.readout.json``, ``NAME.json`` or
+       ``STEM.json`` -- with a key naming the readout in ms, such as Gyroflow's
+       ``frame_readout_time`` (lens profiles and project files) or ``readout_ms``.
+    2. Container and stream metadata tags whose name contains ``readout`` (ms).
+    3. With the optional ``telemetry-parser`` package (``pip install 'unjello[gyro]'``),
+       the camera metadata it decodes (Sony, GoPro, DJI, ...), searched the same way.
+
+    Parameters
+    ----------
+    path : path-like
+        The video (or frame folder: sidecars only).
+
+    Returns
+    -------
+    StatedReadout or None
+    """
+    import json
+
+    p = Path(path)
+    for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
+                 p.with_suffix(".json")):
+        if side != p and side.is_file():
+            try:
+                value = _find_readout_key(json.loads(side.read_text()))
+            except (OSError, ValueError):
+                value = None
+            if value is not None:
+                return StatedReadout(value, f"sidecar {side.name}")
+    if not p.is_file():
+        return None
+    try:
+        import av
+
+        with av.open(str(p)) as c:
+            tags = dict(c.metadata)
+            for s in c.streams:
+                tags.update(s.metadata)
+    except Exception:  # noqa: BLE001 - unreadable files are reported elsewhere
+        return None
+    value = _find_readout_key(tags)
+    if value is not None:
+        return StatedReadout(value, "container metadata")
+    try:
+        import telemetry_parser
+    except ImportError:
+        return None
+    try:
+        tp = telemetry_parser.Parser(str(p))
+        value = _find_readout_key(tp.telemetry(human_readable=True))
+    except Exception:  # noqa: BLE001 - vendor parsers fail on many files; then nothing
+        return None
+    if value is not None:
+        return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
+    return None
