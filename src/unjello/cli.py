@@ -353,7 +353,7 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
     from .demo import run_demo
 
     report = run_demo(output, frames=frames, overwrite=overwrite)
-    click.echo(f"rolling-shutter clip: readout {report['readout']:g}, pan "
+    click.echo(f"rolling-shutter clip: readout {report['readout']:g}, diagonal pan "
                f"{report['speed']:g} px/frame, {report['frames']} frames "
                f"({report['width']}x{report['height']})")
     click.echo(f"mean per-scanline displacement error: before {report['error_before']:.3f} px, "
