@@ -40,6 +40,7 @@ from .warp import (
     field_maps,
     remap_field,
     resample_displacement,
+    resize_maps,
     warp_image,
 )
 
@@ -165,11 +166,15 @@ class Corrector:
         h, w = ref.shape[:2]
         out = []
         maps = field_maps(motion.field) if motion.field is not None else None
+        sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         for plane in planes:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
-            if motion.field is not None:
-                res, _ = remap_field(tb, motion.field, fill=self.config.fill, maps=maps)
+            if maps is not None:
+                if (ph, pw) not in sized:  # U and V share their maps
+                    sized[(ph, pw)] = resize_maps(*maps, ph, pw)
+                res, _ = remap_field(tb, motion.field, fill=self.config.fill,
+                                     maps=sized[(ph, pw)])
             else:
                 disp = motion.displacement if (ph, pw) == (h, w) else resample_displacement(
                     motion.displacement, ph, pw / w, ph / h)

@@ -355,16 +355,9 @@ def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
                 return StatedReadout(value, f"sidecar {side.name}")
     if not p.is_file():
         return None
-    try:
-        import av
+    from .io.video import metadata_tags
 
-        with av.open(str(p)) as c:
-            tags = dict(c.metadata)
-            for s in c.streams:
-                tags.update(s.metadata)
-    except Exception:  # noqa: BLE001 - unreadable files are reported elsewhere
-        return None
-    value = _find_readout_key(tags)
+    value = _find_readout_key(metadata_tags(p))
     if value is not None:
         return StatedReadout(value, "container metadata")
     try:

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import InputError, OutputError
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
-           "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES"]
+           "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags"]
 
 VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm", ".mts", ".m2ts")
 
@@ -116,6 +116,18 @@ def probe(path: str | os.PathLike) -> VideoInfo:
         )
     finally:
         c.close()
+
+
+def metadata_tags(path: str | os.PathLike) -> dict[str, str]:
+    """Container and stream metadata tags of a media file (empty if unreadable)."""
+    try:
+        with av.open(str(path)) as c:
+            tags = dict(c.metadata)
+            for s in c.streams:
+                tags.update(s.metadata)
+            return tags
+    except (av.FFmpegError, OSError, ValueError, UnicodeDecodeError):
+        return {}
 
 
 def variable_rate(path: str | os.PathLike, max_frames: int = 300) -> bool:
