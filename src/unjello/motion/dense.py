@@ -441,10 +441,11 @@ class DenseMethod:
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
         velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
             np.zeros((h, 2)))
-        knots = np.linspace(0, 1, u.shape[0])
-        frac_rows = np.arange(h) / max(h - 1, 1)
-        velocity = velocity + np.stack([np.interp(frac_rows, knots, u[:, k]) for k in range(2)],
-                                       axis=1)
+        if u.shape[0]:
+            knots = np.linspace(0, 1, u.shape[0])
+            frac_rows = np.arange(h) / max(h - 1, 1)
+            velocity = velocity + np.stack(
+                [np.interp(frac_rows, knots, u[:, k]) for k in range(2)], axis=1)
         # Per-pixel residual of the flow on each side, relative to the camera.
         ys = np.arange(h, dtype=np.float32)[:, None]
         t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
