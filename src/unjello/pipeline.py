@@ -170,7 +170,7 @@ class Corrector:
         for plane in planes:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
-            if maps is not None:
+            if maps is not None and motion.field is not None:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw)
                 res, _ = remap_field(tb, motion.field, fill=self.config.fill,

@@ -259,7 +259,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
                 continue
             t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eq]) for i in range(4))
             total += solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
-                                             1e-3, return_cost=True)
+                                             1e-3).cost
         costs[j] = total
     best = int(np.argmin(costs))
     rho = float(candidates[best])

@@ -97,9 +97,9 @@ class Motion:
             return self.amplitude * np.stack([x, y], axis=-1)
         if self.kind == "jello":
             sec = t / self.fps
-            waves = ((23.0, 2.0, 1.0, 0.4), (31.0, 1.0, 2.0, 1.7), (39.0, 1.0, 0.5, 2.3))
-            x = sum(ax * np.sin(2 * np.pi * f * sec + ph) for f, ax, _, ph in waves)
-            y = sum(ay * np.sin(2 * np.pi * f * sec + ph + 0.5) for f, _, ay, ph in waves)
+            vib = ((23.0, 2.0, 1.0, 0.4), (31.0, 1.0, 2.0, 1.7), (39.0, 1.0, 0.5, 2.3))
+            x = sum(ax * np.sin(2 * np.pi * f * sec + ph) for f, ax, _, ph in vib)
+            y = sum(ay * np.sin(2 * np.pi * f * sec + ph + 0.5) for f, _, ay, ph in vib)
             drift = 0.25 * self.speed * t
             return np.stack([self.amplitude * x + drift, self.amplitude * y], axis=-1)
         if self.kind == "spline":

@@ -250,7 +250,7 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
             for k in range(c):
                 acc[:, k] += np.bincount(idx, weights=wi * vals[inside, k], minlength=n)
     valid = (wsum > 0).reshape(h, w)
-    out = (acc / np.maximum(wsum, 1e-300)[:, None]).reshape(h, w, c)
+    out: np.ndarray = (acc / np.maximum(wsum, 1e-300)[:, None]).reshape(h, w, c)
     out = fill_holes(out.astype(np.float32), valid, fill)
     out = out.reshape(image.shape)
     if np.issubdtype(image.dtype, np.integer):

@@ -219,6 +219,7 @@ class VideoReader:
                         yield "audio", packet, None
                     continue
                 for frame in packet.decode():
+                    assert isinstance(frame, av.VideoFrame)
                     yield "video", self._planes(frame), frame.pts
         except av.FFmpegError as exc:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
@@ -275,7 +276,8 @@ class VideoWriter:
             raise OutputError(f"{path}: cannot create output ({exc})") from None
         try:
             vs = self._c.add_stream(options.codec, rate=rate)
-        except (av.FFmpegError, ValueError) as exc:
+            assert isinstance(vs, av.video.stream.VideoStream)
+        except (av.FFmpegError, ValueError, AssertionError) as exc:
             self._c.close()
             raise OutputError(f"unknown or unavailable codec {options.codec!r} ({exc})") from None
         vs.width, vs.height = size
@@ -283,10 +285,10 @@ class VideoWriter:
         vs.time_base = self._time_base
         vs.codec_context.time_base = self._time_base
         vs.thread_type = "AUTO"
-        opts = {"preset": options.preset}
+        opts: dict[str, str] = {"preset": options.preset}
         if options.codec in ("libx264", "libx265"):
             opts["crf"] = str(options.crf)
-        vs.options = opts
+        vs.options = opts  # type: ignore[assignment]
         for k, v in (color or {}).items():
             if v is not None:
                 try:

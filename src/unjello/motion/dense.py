@@ -45,7 +45,8 @@ import numpy as np
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 
-__all__ = ["DenseConfig", "DenseMethod", "optical_flow", "solve_camera_trajectory",
+__all__ = ["DenseConfig", "DenseMethod", "CameraSolution", "optical_flow",
+           "solve_camera_trajectory",
            "pair_row_flows", "row_flows"]
 
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
@@ -117,7 +118,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         size = (max(8, round(w * scale)), max(8, round(h * scale)))
         a8 = cv2.resize(a8, size, interpolation=cv2.INTER_AREA)
         b8 = cv2.resize(b8, size, interpolation=cv2.INTER_AREA)
-    dis = cv2.DISOpticalFlow_create(_PRESETS[preset])
+    dis = cv2.DISOpticalFlow_create(_PRESETS[preset])  # type: ignore[attr-defined]
     if finest_scale is not None:
         dis.setFinestScale(finest_scale)
     flow = dis.calc(a8, b8, None)
@@ -150,10 +151,34 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
+@dataclass(frozen=True)
+class CameraSolution:
+    """Solution of :func:`solve_camera_trajectory`.
+
+    Attributes
+    ----------
+    t0 : float
+        Time of the first grid sample.
+    step : float
+        Grid spacing.
+    c : ndarray of shape (n, 2)
+        Trajectory samples at ``t0 + k * step``, zero mean.
+    u : ndarray of shape (row_knots, 2)
+        Row velocity at ``rows = linspace(0, 1, row_knots)`` (empty without rows).
+    cost : float
+        The minimised objective (misfit plus penalties), to compare models.
+    """
+
+    t0: float
+    step: float
+    c: np.ndarray
+    u: np.ndarray
+    cost: float
+
+
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
-                            smoothness: float, row_knots: int = 16, return_cost: bool = False
-                            ) -> tuple[float, np.ndarray, np.ndarray] | float:
+                            smoothness: float, row_knots: int = 16) -> CameraSolution:
     """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
 
     ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
@@ -180,26 +205,19 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         Weight of the penalty on the acceleration of ``c``.
     row_knots : int
         Knots of ``u`` over the frame height (linear in between).
-    return_cost : bool
-        Return only the minimised objective (misfit plus penalties), to compare models.
 
     Returns
     -------
-    t0 : float
-        Time of the first grid sample.
-    c : ndarray of shape (n, 2)
-        Trajectory samples at ``t0 + k * step``, zero mean.
-    u : ndarray of shape (row_knots, 2)
-        Row velocity at ``rows = linspace(0, 1, row_knots)``.
+    CameraSolution
 
     Examples
     --------
     A constant velocity of 4 px per unit time:
 
     >>> ta = np.linspace(1, 2, 50); tb = ta - 1.0; y = np.linspace(0, 1, 50)
-    >>> t0, c, u = solve_camera_trajectory(ta, tb, y, np.tile([4.0, 0.0], (50, 1)),
-    ...                                    np.ones(50), 0.05, 0.05)
-    >>> bool(np.allclose(np.diff(c[:, 0]) / 0.05 + u[0, 0], 4.0, atol=1e-2))
+    >>> sol = solve_camera_trajectory(ta, tb, y, np.tile([4.0, 0.0], (50, 1)),
+    ...                               np.ones(50), 0.05, 0.05)
+    >>> bool(np.allclose(np.diff(sol.c[:, 0]) / 0.05 + sol.u[0, 0], 4.0, atol=1e-2))
     True
     """
     t0 = float(min(t_a.min(), t_b.min())) - step
@@ -236,11 +254,10 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         ata[n:, n:] += 1e-3 * scale * (e2.T @ e2) + 1e-4 * scale * np.eye(k)
     ata += 1e-9 * np.eye(n + k) * (np.trace(ata) / (n + k) + 1e-12)
     sol = np.linalg.solve(ata, atb)
-    if return_cost:
-        # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
-        return float(((delta * sw) ** 2).sum() - (sol * atb).sum())
+    # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
+    cost = float(((delta * sw) ** 2).sum() - (sol * atb).sum())
     c, u = sol[:n], sol[n:]
-    return t0, c - c.mean(axis=0), u
+    return CameraSolution(t0, step, c - c.mean(axis=0), u, cost)
 
 
 def _shorth(values: np.ndarray) -> np.ndarray:
@@ -358,8 +375,8 @@ class DenseMethod:
 
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at time ``start``."""
-        img = np.asarray(frame, dtype=np.float32)
-        self._full = img.shape[:2]
+        img: np.ndarray = np.asarray(frame, dtype=np.float32)
+        self._full = (img.shape[0], img.shape[1])
         ww = self.config.work_width
         if ww and img.shape[1] > ww:
             size = (ww, max(8, round(img.shape[0] * ww / img.shape[1])))
@@ -405,7 +422,7 @@ class DenseMethod:
                 self._frames.popleft()
         return out
 
-    def _camera(self, n: int) -> tuple[float, float, np.ndarray, np.ndarray] | None:
+    def _camera(self, n: int) -> CameraSolution | None:
         eqs = [f.rows for f in self._frames
                if f.rows is not None and abs(f.index - n) <= self.config.window
                and f.index - 1 >= n - self.config.window and len(f.rows[0])]
@@ -413,9 +430,8 @@ class DenseMethod:
             return None
         t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
         step = self.timing.readout / self.config.grid
-        t0, c, u = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step,
-                                           self.config.smoothness)
-        return t0, step, c, u
+        return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step,
+                                       self.config.smoothness)
 
     def _emit(self, fr: _Frame) -> FrameMotion:
         h, w = fr.image.shape
@@ -427,7 +443,7 @@ class DenseMethod:
             z = np.zeros((self._full[0], 2))
             return FrameMotion(fr.index, fr.start, z, z, ok=False,
                                note="no reliable motion: frame left as is")
-        t0, step, c, u = cam
+        t0, step, c, u = cam.t0, cam.step, cam.c, cam.u
         # Times relative to the frame's start, so float32 keeps sub-row precision.
         grid_t = t0 - fr.start + step * np.arange(c.shape[0])
         t_rows = t_rows - fr.start

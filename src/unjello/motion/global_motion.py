@@ -165,8 +165,8 @@ def block_match(
     sub = 4 if b % 4 == 0 and b >= 8 else 1
     s_sub = _box_sums(p, sub)
     offs = np.arange(0, b, sub)
-    oy, ox = np.meshgrid(offs, offs, indexing="ij")
-    oy, ox = oy.ravel(), ox.ravel()
+    gy, gx = np.meshgrid(offs, offs, indexing="ij")
+    oy, ox = gy.ravel(), gx.ravel()
     s_half = _box_sums(p, b // 2)
     hy2, hx2 = (a.ravel() for a in np.meshgrid([0, b // 2], [0, b // 2], indexing="ij"))
     yy, xx = np.mgrid[0:b, 0:b]
@@ -332,10 +332,11 @@ def histogram_peak(
     """
     n = 2 * search + 1
     v = np.asarray(vectors, dtype=np.int64).reshape(-1, 2) + search
-    hist = np.zeros((n, n), dtype=np.float32)
-    np.add.at(hist, (v[:, 1], v[:, 0]), 1.0)
+    counts = np.zeros((n, n), dtype=np.float32)
+    np.add.at(counts, (v[:, 1], v[:, 0]), 1.0)
+    hist: np.ndarray = counts
     if sigma > 0:
-        hist = cv2.GaussianBlur(hist, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
+        hist = cv2.GaussianBlur(counts, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
     iy, ix = np.unravel_index(int(np.argmax(hist)), hist.shape)
     return np.array([ix - search, iy - search], dtype=np.int64), hist
 
