@@ -140,7 +140,7 @@ def test_probe_json(clip):
     assert res.returncode == 0, res.stderr
     doc = json.loads(res.stdout)
     assert doc["width"] == 192 and doc["audio_streams"] == 1
-    assert doc["variable_frame_rate"] is False
+    assert doc["variable_frame_rate"] is False and doc["readout_ms"] is None
 
 
 def test_plot_command(tmp_path, clip):

@@ -442,14 +442,18 @@ def probe(input: Path, as_json: bool) -> None:
     """Describe a video: size, rate (and whether it varies), rotation, audio, format."""
     from .io.video import probe as run_probe
     from .io.video import variable_rate
+    from .readout import stated_readout
 
     info = run_probe(input)
     vfr = variable_rate(input)
+    stated = stated_readout(input)
     doc = {"path": str(input), "width": info.width, "height": info.height,
            "fps": round(info.fps, 4), "variable_frame_rate": vfr, "frames": info.frames,
            "duration": round(info.duration, 3), "codec": info.codec, "pix_fmt": info.pix_fmt,
            "bit_depth": info.bit_depth, "rotation": info.rotation,
-           "audio_streams": info.audio_streams, "readout": None,
+           "audio_streams": info.audio_streams,
+           "readout_ms": stated.milliseconds if stated else None,
+           "readout_source": stated.source if stated else None,
            "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}
     if as_json:
         click.echo(json.dumps(doc))
@@ -458,8 +462,13 @@ def probe(input: Path, as_json: bool) -> None:
                f"({info.bit_depth}-bit), {info.fps:.3f} fps{' (variable)' if vfr else ''}, "
                f"{info.frames} frames, {info.duration:.2f} s")
     click.echo(f"rotation {info.rotation} deg, {info.audio_streams} audio stream(s)")
-    click.echo("readout: not stated in the file; measure it (unjello readout), estimate it "
-               "(unjello estimate-readout) or pass --readout")
+    if stated:
+        ratio = stated.milliseconds * 1e-3 * info.fps
+        click.echo(f"readout: {stated.milliseconds:g} ms ({ratio:.3f} of the frame interval), "
+                   f"from the {stated.source}")
+    else:
+        click.echo("readout: not stated by the file or a sidecar; measure it (unjello readout), "
+                   "estimate it (unjello estimate-readout) or pass --readout")
 
 
 def main(argv: list[str] | None = None) -> Any:
