@@ -162,3 +162,22 @@ def test_ctrl_c_removes_partial_output(tmp_path, scene):
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "interrupted" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["long.mp4"]
+
+
+def test_video_output_onto_a_folder_is_refused(tmp_path, good):
+    (tmp_path / "dir").mkdir()
+    (tmp_path / "dir" / "keep.txt").write_text("x")
+    line = _clean_failure(run("correct", good, "-o", tmp_path / "dir", "-y"))
+    assert "is a folder" in line
+    assert (tmp_path / "dir" / "keep.txt").exists()
+
+
+def test_output_inside_input_folder_is_refused(tmp_path, scene):
+    from unjello.io.frames import write_image
+
+    src = tmp_path / "frames"
+    src.mkdir()
+    for i in range(2):
+        write_image(src / f"{i}.png", scene[:128, :128])
+    line = _clean_failure(run("correct", src, "-o", src / "out"))
+    assert "inside the input folder" in line

@@ -271,6 +271,10 @@ def _check_paths(src: Path, dst: Path, overwrite: bool) -> None:
         raise InputError(f"{src}: no such file or folder")
     if dst.resolve() == src.resolve() or (dst.exists() and os.path.samefile(src, dst)):
         raise OutputError(f"output {dst} is the input; choose another name")
+    if src.is_file() and dst.is_dir():
+        raise OutputError(f"{dst} is a folder; give the output video a file name")
+    if src.is_dir() and dst.resolve().is_relative_to(src.resolve()):
+        raise OutputError(f"output {dst} is inside the input folder; choose another place")
     if dst.exists() and not overwrite:
         raise OutputError(f"{dst} exists; pass -y to overwrite it")
     parent = dst.parent if str(dst.parent) else Path(".")
