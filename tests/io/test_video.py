@@ -76,3 +76,24 @@ def test_bad_inputs(tmp_path, scene):
     with pytest.raises(OutputError):
         correct_video(good, existing)
     assert existing.read_bytes() == b"keep me"
+
+
+def test_colour_tags_kept(tmp_path, scene):
+    src, dst = tmp_path / "tagged.mp4", tmp_path / "out.mp4"
+    with av.open(str(src), "w") as out:
+        vs = out.add_stream("libx264", rate=30)
+        vs.width, vs.height, vs.pix_fmt = 192, 144, "yuv420p"
+        cc = vs.codec_context
+        cc.color_primaries, cc.color_trc, cc.colorspace, cc.color_range = 1, 1, 1, 1  # BT.709
+        for i in range(4):
+            img = np.ascontiguousarray(scene[i * 4:i * 4 + 144, :192])
+            for p in vs.encode(av.VideoFrame.from_ndarray(img, format="rgb24")
+                               .reformat(format="yuv420p")):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+    a = probe(src).color
+    correct_video(src, dst)
+    b = probe(dst).color
+    assert int(a["color_primaries"]) == 1 and int(a["colorspace"]) == 1
+    assert {k: int(v) for k, v in a.items()} == {k: int(v) for k, v in b.items()}
