@@ -150,3 +150,24 @@ def test_plot_command(tmp_path, clip):
     res = run("plot", motion, "-o", tmp_path / "m.png")
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "m.png").stat().st_size > 10000
+
+
+def test_textureless_video_is_handled(tmp_path):
+    import av
+    import numpy as np
+
+    src = tmp_path / "flat.mp4"
+    with av.open(str(src), "w") as out:
+        vs = out.add_stream("libx264", rate=30)
+        vs.width, vs.height, vs.pix_fmt = 160, 120, "yuv420p"
+        for i in range(4):
+            img = np.full((120, 160, 3), 90 + i, np.uint8)
+            for p in vs.encode(av.VideoFrame.from_ndarray(img, format="rgb24")):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+    res = run("correct", src, "-o", tmp_path / "o.mp4", "--json")
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr
+    doc = json.loads(res.stdout)
+    assert doc["frames"] == 4

@@ -200,13 +200,18 @@ def correct(input: Path, output: Path, readout: str | None, direction: str, refe
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
         log(f"warning: motion bridged over on {bad} frame(s)")
+    fallback = float(np.mean([f.fallback for f in traj.frames])) if len(traj) else 0.0
+    if fallback > 0.1:
+        log(f"warning: the flow was unreliable on {100 * fallback:.0f}% of the pixels (flat "
+            "areas, occlusions); they follow the camera's motion instead")
     if as_json:
         click.echo(json.dumps({
             "input": str(input), "output": str(output), "frames": len(traj),
             "method": traj.method, "readout": traj.timing.readout,
             "direction": traj.timing.direction, "reference": traj.timing.reference,
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
-            "bridged_frames": bad, "messages": messages}))
+            "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
+            "messages": messages}))
     elif not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g}, "
                    f"{len(traj) / max(seconds, 1e-9):.1f} fps)", err=True)

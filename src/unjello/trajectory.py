@@ -13,7 +13,8 @@ Methods produce it; the warper, the exports, the metrics and the plots consume i
 The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the method, the
 timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
-scanline in frame intervals), ``ok``, ``note``, ``displacement`` and ``velocity`` as
+scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
+pixels on the camera motion), ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``.
@@ -57,6 +58,9 @@ class FrameMotion:
         False when the estimate was bridged over a failure (see ``note``).
     note : str
         Why the estimate is not a direct measurement, if so.
+    fallback : float
+        Dense methods: fraction of pixels whose flow was unreliable and which follow the
+        camera (per-scanline) motion instead.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -70,6 +74,7 @@ class FrameMotion:
     velocity: np.ndarray
     ok: bool = True
     note: str = ""
+    fallback: float = 0.0
     field: np.ndarray | None = None
 
     def pixel_displacement(self, width: int) -> np.ndarray:
@@ -93,6 +98,7 @@ class FrameMotion:
             "start": float(self.start),
             "ok": bool(self.ok),
             "note": self.note,
+            "fallback": round(float(self.fallback), 4),
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
         }
@@ -120,6 +126,7 @@ class FrameMotion:
             velocity=np.asarray(d["velocity"], dtype=np.float64).reshape(-1, 2),
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
+            fallback=float(d.get("fallback", 0.0)),
             field=field,
         )
 

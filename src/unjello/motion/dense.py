@@ -514,4 +514,5 @@ class DenseMethod:
                         axis=1)
         vel = np.stack([np.interp(rows_full, np.arange(h), velocity[:, k]) for k in range(2)],
                        axis=1) * scale
-        return FrameMotion(fr.index, fr.start, disp, vel, ok=True, note=note, field=field)
+        return FrameMotion(fr.index, fr.start, disp, vel, ok=True, note=note, fallback=frac,
+                           field=field)
