@@ -21,6 +21,8 @@ in frame ``n - 1`` (see :mod:`unjello.timing`).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -172,82 +174,86 @@ def block_match(
     yy, xx = np.mgrid[0:b, 0:b]
     yy, xx = yy.ravel(), xx.ravel()
 
-    centers, vecs, sads = [], [], []
-    for by in range(0, h - b + 1, b):
-        for bx in range(0, w - b + 1, b):
-            blk = c[by:by + b, bx:bx + b]
-            if blk.std() < config.min_std:
-                continue
-            y0, y1 = max(0, by - r), min(h - b, by + r)
-            x0, x1 = max(0, bx - r), min(w - b, bx + r)
-            ww = x1 - x0 + 1
-            lb = np.abs(s_full[y0:y1 + 1, x0:x1 + 1] - float(blk.sum(dtype=np.float64))).ravel()
-            flat_blk = blk.ravel()
+    def match_block(by: int, bx: int) -> tuple | None:
+        blk = c[by:by + b, bx:bx + b]
+        if blk.std() < config.min_std:
+            return None
+        y0, y1 = max(0, by - r), min(h - b, by + r)
+        x0, x1 = max(0, bx - r), min(w - b, bx + r)
+        ww = x1 - x0 + 1
+        lb = np.abs(s_full[y0:y1 + 1, x0:x1 + 1] - float(blk.sum(dtype=np.float64))).ravel()
+        flat_blk = blk.ravel()
 
-            def sad_at(idx: np.ndarray, flat_blk=flat_blk, y0=y0, x0=x0, ww=ww) -> np.ndarray:
-                cy = idx // ww + y0
-                cx = idx % ww + x0
-                patches = p[cy[:, None] + yy[None], cx[:, None] + xx[None]]
-                return np.abs(patches - flat_blk[None]).sum(axis=1, dtype=np.float64)
+        def sad_at(idx: np.ndarray, flat_blk=flat_blk, y0=y0, x0=x0, ww=ww) -> np.ndarray:
+            cy = idx // ww + y0
+            cx = idx % ww + x0
+            patches = p[cy[:, None] + yy[None], cx[:, None] + xx[None]]
+            return np.abs(patches - flat_blk[None]).sum(axis=1, dtype=np.float64)
 
-            # An upper bound from a few promising candidates.
-            k = min(16, lb.size)
-            seeds = np.argpartition(lb, k - 1)[:k]
-            hy, hx = int(round(by - hint[1])), int(round(bx - hint[0]))
-            ey = np.clip(np.array([by] + [hy + d for d in (-2, -1, 0, 1, 2) for _ in range(5)]),
-                         y0, y1)
-            ex = np.clip(np.array([bx] + [hx + d for _ in range(5) for d in (-2, -1, 0, 1, 2)]),
-                         x0, x1)
-            seeds = np.concatenate([seeds, (ey - y0) * ww + (ex - x0)])
-            # Bounds and SADs are float sums: a small tolerance keeps ties in.
-            best = sad_at(seeds).min() * (1 + 1e-9) + 1e-3
-            # Successive elimination: whole-block bound, then 4x4 sub-block bound; the
-            # survivors get exact SADs in order of their bound, the bound tightening as
-            # better matches are found.
-            cand = np.flatnonzero(lb <= best)
-            bound = lb[cand]
-            if sub > 1 and cand.size > 64:
-                cy = cand // ww + y0
-                cx = cand % ww + x0
-                h2 = b // 2
-                c8 = blk.reshape(2, h2, 2, h2).sum(axis=(1, 3)).ravel()
-                bound = np.abs(s_half[cy[:, None] + hy2[None], cx[:, None] + hx2[None]]
-                               - c8[None]).sum(axis=1)
+        # An upper bound from a few promising candidates.
+        k = min(16, lb.size)
+        seeds = np.argpartition(lb, k - 1)[:k]
+        hy, hx = int(round(by - hint[1])), int(round(bx - hint[0]))
+        ey = np.clip(np.array([by] + [hy + d for d in (-2, -1, 0, 1, 2) for _ in range(5)]),
+                     y0, y1)
+        ex = np.clip(np.array([bx] + [hx + d for _ in range(5) for d in (-2, -1, 0, 1, 2)]),
+                     x0, x1)
+        seeds = np.concatenate([seeds, (ey - y0) * ww + (ex - x0)])
+        # Bounds and SADs are float sums: a small tolerance keeps ties in.
+        best = sad_at(seeds).min() * (1 + 1e-9) + 1e-3
+        # Successive elimination: whole-block bound, then 4x4 sub-block bound; the
+        # survivors get exact SADs in order of their bound, the bound tightening as
+        # better matches are found.
+        cand = np.flatnonzero(lb <= best)
+        bound = lb[cand]
+        if sub > 1 and cand.size > 64:
+            cy = cand // ww + y0
+            cx = cand % ww + x0
+            h2 = b // 2
+            c8 = blk.reshape(2, h2, 2, h2).sum(axis=(1, 3)).ravel()
+            bound = np.abs(s_half[cy[:, None] + hy2[None], cx[:, None] + hx2[None]]
+                           - c8[None]).sum(axis=1)
+            keep = bound <= best
+            cand, bound, cy, cx = cand[keep], bound[keep], cy[keep], cx[keep]
+            if cand.size > 64:
+                cb = blk.reshape(b // sub, sub, b // sub, sub).sum(axis=(1, 3)).ravel()
+                bound = np.abs(s_sub[cy[:, None] + oy[None], cx[:, None] + ox[None]]
+                               - cb[None]).sum(axis=1)
                 keep = bound <= best
-                cand, bound, cy, cx = cand[keep], bound[keep], cy[keep], cx[keep]
-                if cand.size > 64:
-                    cb = blk.reshape(b // sub, sub, b // sub, sub).sum(axis=(1, 3)).ravel()
-                    bound = np.abs(s_sub[cy[:, None] + oy[None], cx[:, None] + ox[None]]
-                                   - cb[None]).sum(axis=1)
-                    keep = bound <= best
-                    cand, bound = cand[keep], bound[keep]
-            if cand.size == 0:  # rounding removed even the seeds: search them exactly
-                cand = np.unique(seeds)
-                bound = np.zeros(cand.size)
-            order = np.argsort(bound, kind="stable")
-            cand, bound = cand[order], bound[order]
-            done_idx, done_sad = [], []
-            pos = 0
-            while pos < cand.size:
-                chunk = cand[pos:pos + 256]
-                sad_c = sad_at(chunk)
-                done_idx.append(chunk)
-                done_sad.append(sad_c)
-                best = min(best, float(sad_c.min()) * (1 + 1e-9) + 1e-3)
-                pos += chunk.size
-                rest = bound[pos:] <= best
-                cand = np.concatenate([cand[:pos], cand[pos:][rest]])
-                bound = np.concatenate([bound[:pos], bound[pos:][rest]])
-            idx_all = np.concatenate(done_idx)
-            sad = np.concatenate(done_sad)
-            s_min = sad.min()
-            ties = idx_all[sad == s_min]
-            i_best = int(ties.min())
-            s0 = float(s_min)
-            py, px = i_best // ww + y0, i_best % ww + x0
-            centers.append((bx + b / 2, by + b / 2))
-            vecs.append((bx - px, by - py))
-            sads.append(s0 / (b * b))
+                cand, bound = cand[keep], bound[keep]
+        if cand.size == 0:  # rounding removed even the seeds: search them exactly
+            cand = np.unique(seeds)
+            bound = np.zeros(cand.size)
+        order = np.argsort(bound, kind="stable")
+        cand, bound = cand[order], bound[order]
+        done_idx, done_sad = [], []
+        pos = 0
+        while pos < cand.size:
+            chunk = cand[pos:pos + 256]
+            sad_c = sad_at(chunk)
+            done_idx.append(chunk)
+            done_sad.append(sad_c)
+            best = min(best, float(sad_c.min()) * (1 + 1e-9) + 1e-3)
+            pos += chunk.size
+            rest = bound[pos:] <= best
+            cand = np.concatenate([cand[:pos], cand[pos:][rest]])
+            bound = np.concatenate([bound[:pos], bound[pos:][rest]])
+        idx_all = np.concatenate(done_idx)
+        sad = np.concatenate(done_sad)
+        s_min = sad.min()
+        ties = idx_all[sad == s_min]
+        i_best = int(ties.min())
+        s0 = float(s_min)
+        py, px = i_best // ww + y0, i_best % ww + x0
+        return (bx + b / 2, by + b / 2), (bx - px, by - py), s0 / (b * b)
+
+    # Blocks are independent and NumPy releases the GIL in its loops: two threads.
+    positions = [(by, bx) for by in range(0, h - b + 1, b) for bx in range(0, w - b + 1, b)]
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        found = [m for m in pool.map(lambda yx: match_block(*yx), positions) if m is not None]
+    centers = [m[0] for m in found]
+    vecs = [m[1] for m in found]
+    sads = [m[2] for m in found]
     centers_a = np.asarray(centers, dtype=np.float64).reshape(-1, 2)
     vecs_a = np.asarray(vecs, dtype=np.float64).reshape(-1, 2)
     tl = (centers_a - b / 2).astype(np.int64)
