@@ -23,6 +23,19 @@ def good(tmp_path_factory, scene):
     return p
 
 
+def _silent_audio(out, frames):
+    """Add an AAC stream of ``frames`` silent frames to an open output container."""
+    a = out.add_stream("aac", rate=48000)
+    for k in range(frames):
+        af = av.AudioFrame.from_ndarray(np.zeros((1, 1024), np.float32), format="fltp",
+                                        layout="mono")
+        af.sample_rate, af.pts = 48000, k * 1024
+        for p in a.encode(af):
+            out.mux(p)
+    for p in a.encode():
+        out.mux(p)
+
+
 def test_truncated_mp4(tmp_path, good):
     bad = tmp_path / "trunc.mp4"
     bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.3)])
@@ -33,15 +46,7 @@ def test_truncated_mp4(tmp_path, good):
 def test_audio_only(tmp_path):
     path = tmp_path / "audio.m4a"
     with av.open(str(path), "w") as out:
-        a = out.add_stream("aac", rate=48000)
-        for k in range(8):
-            af = av.AudioFrame.from_ndarray(np.zeros((1, 1024), np.float32), format="fltp",
-                                            layout="mono")
-            af.sample_rate, af.pts = 48000, k * 1024
-            for p in a.encode(af):
-                out.mux(p)
-        for p in a.encode():
-            out.mux(p)
+        _silent_audio(out, 8)
     line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mp4"))
     assert "no video stream" in line
 
@@ -129,15 +134,7 @@ def test_video_with_zero_frames(tmp_path):
     with av.open(str(path), "w") as out:
         vs = out.add_stream("mpeg4", rate=30)
         vs.width, vs.height, vs.pix_fmt = 160, 120, "yuv420p"
-        a = out.add_stream("aac", rate=48000)
-        for k in range(4):
-            af = av.AudioFrame.from_ndarray(np.zeros((1, 1024), np.float32), format="fltp",
-                                            layout="mono")
-            af.sample_rate, af.pts = 48000, k * 1024
-            for p in a.encode(af):
-                out.mux(p)
-        for p in a.encode():
-            out.mux(p)
+        _silent_audio(out, 4)
     line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mkv"))
     assert "no frames" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["zero.mkv"]
