@@ -47,7 +47,7 @@ from ..trajectory import FrameMotion
 
 __all__ = ["DenseConfig", "DenseMethod", "CameraSolution", "optical_flow",
            "solve_camera_trajectory",
-           "pair_row_flows", "row_flows"]
+           "pair_row_flows", "row_flows", "flow_pair"]
 
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -317,12 +317,28 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return np.flatnonzero(use).astype(np.float64), _shorth(vals), count[use] / w
 
 
+def flow_pair(prev: np.ndarray, cur: np.ndarray, config: DenseConfig, max_width: int = 0
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Flows between two frames both ways, each with its forward-backward check.
+
+    Returns
+    -------
+    bwd, bwd_ok : ndarray
+        Flow from ``cur`` to ``prev`` and its reliable pixels.
+    fwd, fwd_ok : ndarray
+        Flow from ``prev`` to ``cur`` and its reliable pixels.
+    """
+    bwd = optical_flow(cur, prev, config.flow_preset, max_width, config.finest_scale)
+    fwd = optical_flow(prev, cur, config.flow_preset, max_width, config.finest_scale)
+    return (bwd, _consistent(bwd, fwd, config.consistency),
+            fwd, _consistent(fwd, bwd, config.consistency))
+
+
 def pair_row_flows(prev: np.ndarray, cur: np.ndarray, config: DenseConfig = DenseConfig()
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Row flows from ``cur`` to ``prev`` (see :func:`row_flows`), with the flow check."""
-    bwd = optical_flow(cur, prev, config.flow_preset, config.work_width, config.finest_scale)
-    fwd = optical_flow(prev, cur, config.flow_preset, config.work_width, config.finest_scale)
-    return row_flows(bwd, _consistent(bwd, fwd, config.consistency))
+    bwd, bwd_ok, _, _ = flow_pair(prev, cur, config, config.work_width)
+    return row_flows(bwd, bwd_ok)
 
 
 def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
@@ -385,13 +401,8 @@ class DenseMethod:
         self._count += 1
         if self._frames:
             prev = self._frames[-1]
-            cfg = self.config
-            cur.bwd = optical_flow(cur.image, prev.image, cfg.flow_preset, 0,
-                                   cfg.finest_scale)
-            prev.fwd = optical_flow(prev.image, cur.image, cfg.flow_preset, 0,
-                                    cfg.finest_scale)
-            cur.bwd_ok = _consistent(cur.bwd, prev.fwd, cfg.consistency)
-            prev.fwd_ok = _consistent(prev.fwd, cur.bwd, cfg.consistency)
+            cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flow_pair(prev.image, cur.image,
+                                                                   self.config)
             cur.rows = self._row_equations(prev, cur)
         self._frames.append(cur)
         return self._ready(final=False)
