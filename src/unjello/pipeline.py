@@ -89,7 +89,10 @@ class CorrectionConfig:
 def _luma255(image: np.ndarray, max_value: float) -> np.ndarray:
     img = image
     if img.ndim == 3:
-        img = cv2.cvtColor(img[..., :3].astype(np.float32), cv2.COLOR_RGB2GRAY)
+        rgb = img[..., :3]
+        if rgb.dtype not in (np.uint8, np.uint16, np.float32):
+            rgb = rgb.astype(np.float32)
+        img = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
     return img.astype(np.float32) * np.float32(255.0 / max_value)
 
 
@@ -173,8 +176,8 @@ class Corrector:
             if maps is not None and motion.field is not None:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw)
-                res, _ = remap_field(tb, motion.field, fill=self.config.fill,
-                                     maps=sized[(ph, pw)])
+                res = remap_field(tb, motion.field, fill=self.config.fill,
+                                  maps=sized[(ph, pw)])
             else:
                 disp = motion.displacement if (ph, pw) == (h, w) else resample_displacement(
                     motion.displacement, ph, pw / w, ph / h)

@@ -279,7 +279,8 @@ def warp_image(image: np.ndarray, displacement: np.ndarray, *, mode: WarpMode = 
     return remap(image, displacement, fill)
 
 
-def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.ndarray]:
+def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
 
     The source ``s`` of every output pixel ``p`` is the fixed point of
@@ -292,7 +293,9 @@ def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.n
     field : ndarray of shape (h, w, 2)
         Per-pixel ``(dx, dy)``.
     iterations : int
-        Fixed-point iterations.
+        Most fixed-point iterations.
+    tol : float
+        Stop once no map value moves by more than this (px).
 
     Returns
     -------
@@ -305,7 +308,12 @@ def field_maps(field: np.ndarray, iterations: int = 6) -> tuple[np.ndarray, np.n
     mx, my = gx + f[..., 0], gy + f[..., 1]
     for _ in range(iterations):
         fs = cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        mx, my = gx + fs[..., 0], gy + fs[..., 1]
+        nx, ny = gx + fs[..., 0], gy + fs[..., 1]
+        sub = (slice(None, None, 2), slice(None, None, 2))  # a cheap convergence test
+        moved = max(float(np.abs(nx[sub] - mx[sub]).max()), float(np.abs(ny[sub] - my[sub]).max()))
+        mx, my = nx, ny
+        if moved < tol:
+            break
     return mx, my
 
 
@@ -315,15 +323,17 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
     h, w = map_x.shape
     if (h, w) == (height, width):
         return map_x, map_y
-    sx, sy = width / w, height / h
-    mx = cv2.resize(map_x, (width, height), interpolation=cv2.INTER_LINEAR)
-    my = cv2.resize(map_y, (width, height), interpolation=cv2.INTER_LINEAR)
-    return (mx + 0.5) * sx - 0.5, (my + 0.5) * sy - 0.5
+    sx, sy = np.float32(width / w), np.float32(height / h)
+    # Linear interpolation commutes with the affine change of units: apply it first,
+    # on the small maps.
+    mx = (map_x + np.float32(0.5)) * sx - np.float32(0.5)
+    my = (map_y + np.float32(0.5)) * sy - np.float32(0.5)
+    return (cv2.resize(mx, (width, height), interpolation=cv2.INTER_LINEAR),
+            cv2.resize(my, (width, height), interpolation=cv2.INTER_LINEAR))
 
 
 def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest",
-                maps: tuple[np.ndarray, np.ndarray] | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+                maps: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Dense backward warp: every pixel moved by its own eq. 26 displacement.
 
     Parameters
@@ -334,15 +344,14 @@ def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest",
         then solved at the field's resolution and interpolated: the field is smooth).
     fill : {'nearest', 'black'}
     maps : tuple of ndarray, optional
-        Precomputed :func:`field_maps` of ``field``.
+        Precomputed :func:`field_maps` of ``field``, already at the image's size.
 
     Returns
     -------
-    out, valid : as :func:`remap`.
+    ndarray like ``image``
+        The corrected frame.
     """
     h, w = image.shape[:2]
-    mx, my = resize_maps(*(maps or field_maps(field)), h, w)
+    mx, my = maps if maps is not None else resize_maps(*field_maps(field), h, w)
     border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
-    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
-    valid = (mx >= -0.5) & (mx <= w - 0.5) & (my >= -0.5) & (my <= h - 0.5)
-    return out, valid
+    return cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=border, borderValue=0)

