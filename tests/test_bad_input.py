@@ -147,13 +147,13 @@ def test_ctrl_c_removes_partial_output(tmp_path, scene):
     import time
 
     src = tmp_path / "long.mp4"
-    make_clip(src, scene, n=60, size=(320, 240), audio=False)
+    make_clip(src, scene, n=150, size=(320, 240), audio=False)
     proc = subprocess.Popen([sys.executable, "-m", "unjello", "correct", str(src), "-o",
                              str(tmp_path / "o.mp4"), "-q"], stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
     while time.time() < deadline and not list(tmp_path.glob(".o.unjello-*")):
         time.sleep(0.05)
-    time.sleep(0.5)
+    time.sleep(0.2)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err

@@ -53,7 +53,7 @@ def test_ray_batch(clips, tmp_path):
 
 
 def test_batch_cli_exit_code(clips, tmp_path):
-    res = run("batch", clips, "-o", tmp_path / "out", "--workers", "2")
+    res = run("batch", clips, "-o", tmp_path / "out", "--workers", "2", "--preset", "fast")
     assert res.returncode == 1
     assert "3 corrected, 0 skipped, 1 failed" in res.stderr
     assert "Traceback" not in res.stderr

@@ -135,6 +135,15 @@ def test_preset_file_and_command_line_wins(tmp_path, clip):
     assert json.loads(res.stdout)["readout"] == 0.5
 
 
+def test_preset_fast_is_camera_only(tmp_path, clip):
+    motion = tmp_path / "m.json"
+    res = run("correct", clip, "-o", tmp_path / "f.mp4", "--preset", "fast", "--motion-out",
+              motion, "--json")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(motion.read_text())
+    assert doc["frames"] and all("field" not in f for f in doc["frames"])
+
+
 def test_probe_json(clip):
     res = run("probe", clip, "--json")
     assert res.returncode == 0, res.stderr

@@ -86,3 +86,4 @@ def test_resample_displacement_for_chroma():
     c = resample_displacement(d, 50, 0.5, 0.5)
     assert c.shape == (50, 2)
     assert c[0, 0] == pytest.approx(0.5 * np.interp(0.5, np.arange(100), d[:, 0]))
+

@@ -28,12 +28,12 @@ __all__ = ["main", "cli"]
 PRESETS: dict[str, dict[str, Any]] = {
     # The paper's own output: its method, forward splatting, black where nothing lands.
     "paper-figures": {"method": "paper", "warp": "splat", "fill": "black"},
-    # Faster motion: the DIS "fast" flow preset (measured on the pairs: about 0.3 dB
-    # below the default); the encoder settings stay as given.
-    "fast": {"flow_preset": "fast"},
+    # Transcode-rate speed: the camera trajectory alone (no per-pixel parallax), from
+    # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
+    "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
 }
 _PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
-                "flow_preset", "work_width", "codec", "crf", "x264_preset")
+                "flow_preset", "work_width", "camera_only", "codec", "crf", "x264_preset")
 
 
 def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
@@ -109,6 +109,68 @@ def _timing_options(f: Callable) -> Callable:
     return _readout_option(f)
 
 
+def _settings_options(f: Callable) -> Callable:
+    """Options shared by ``correct`` and ``batch``: timing, method, warp, encoder, preset."""
+    for opt in reversed([
+        click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
+                     show_default=True,
+                     help="Motion model: 'dense' = per-pixel flow with a scanline-resolution "
+                          "camera trajectory; 'paper' = Liang, Chang & Chen 2008."),
+        click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
+                     show_default=True,
+                     help="Backward remap (fast) or the paper's forward splat."),
+        click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
+                     show_default=True, help="What fills the area no scanline reaches."),
+        click.option("--search", type=click.IntRange(1, 1000), default=160,
+                     show_default=True,
+                     help="Global block-matching search range, px (paper: 160)."),
+        click.option("--flow-preset", type=click.Choice(["ultrafast", "fast", "medium"]),
+                     default="medium", show_default=True,
+                     help="Dense method: DIS optical flow preset (speed vs accuracy)."),
+        click.option("--work-width", type=click.IntRange(0, 100000), default=640,
+                     show_default=True,
+                     help="Dense method: estimate motion on frames at most this wide "
+                          "(0: full)."),
+        click.option("--camera-only", is_flag=True,
+                     help="Dense method: camera trajectory only, one displacement per "
+                          "scanline (fast; no per-pixel parallax or moving objects)."),
+        click.option("--preset",
+                     help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file with "
+                          "the same keys as these options; the command line wins."),
+        click.option("--codec", default="libx264", show_default=True),
+        click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True),
+        click.option("--x264-preset", default="medium", show_default=True,
+                     help="Encoder speed/size preset (ultrafast ... veryslow)."),
+    ]):
+        f = opt(f)
+    return _timing_options(f)
+
+
+def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, EncodeOptions]:
+    """Apply ``--preset`` and build the correction settings from the shared options.
+
+    Returns
+    -------
+    readout, direction, reference, CorrectionConfig, EncodeOptions
+    """
+    from .motion.dense import DenseConfig
+    from .motion.global_motion import BlockMatchConfig
+    from .motion.paper import PaperConfig
+    from .pipeline import CorrectionConfig
+
+    v = dict(options)
+    preset = v.pop("preset", None)
+    if preset:
+        v.update(_apply_preset(click.get_current_context(), preset))
+    config = CorrectionConfig(method=v["method"], warp=v["warp"], fill=v["fill"],
+                              paper=PaperConfig(BlockMatchConfig(search=v["search"])),
+                              dense=DenseConfig(flow_preset=v["flow_preset"],
+                                                work_width=v["work_width"],
+                                                per_pixel=not v["camera_only"]))
+    return (v["readout"], v["direction"], v["reference"], config,
+            EncodeOptions(v["codec"], v["crf"], v["x264_preset"]))
+
+
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="unjello")
 def cli() -> None:
@@ -119,22 +181,7 @@ def cli() -> None:
 @click.argument("input", type=click.Path(path_type=Path))
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               help="Output video, or folder for a folder input.")
-@_timing_options
-@click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
-              show_default=True,
-              help="Motion model: 'dense' = per-pixel flow with a scanline-resolution camera "
-                   "trajectory; 'paper' = Liang, Chang & Chen 2008.")
-@click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
-              show_default=True, help="Backward remap (fast) or the paper's forward splat.")
-@click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
-              show_default=True, help="What fills the area no scanline reaches.")
-@click.option("--search", type=click.IntRange(1, 1000), default=160, show_default=True,
-              help="Global block-matching search range, px (paper: 160).")
-@click.option("--flow-preset", type=click.Choice(["ultrafast", "fast", "medium"]),
-              default="medium", show_default=True,
-              help="Dense method: DIS optical flow preset (speed vs accuracy).")
-@click.option("--work-width", type=click.IntRange(0, 100000), default=640, show_default=True,
-              help="Dense method: estimate motion on frames at most this wide (0: full).")
+@_settings_options
 @click.option("--motion-out", type=click.Path(path_type=Path),
               help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
 @click.option("--motion-in", type=click.Path(path_type=Path),
@@ -143,43 +190,19 @@ def cli() -> None:
               help="Also write a side-by-side video: input left, corrected right.")
 @click.option("--stmap", type=click.Path(path_type=Path),
               help="Folder for per-frame 16-bit STMap PNGs (Nuke, Resolve/Fusion, AE).")
-@click.option("--preset", help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file "
-                               "with the same keys as these options; the command line wins.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON summary line on stdout.")
-@click.option("--codec", default="libx264", show_default=True)
-@click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
-@click.option("--x264-preset", default="medium", show_default=True,
-              help="Encoder speed/size preset (ultrafast ... veryslow).")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def correct(input: Path, output: Path, readout: str | None, direction: str, reference: str,
-            method: str, warp: str, fill: str, search: int, flow_preset: str,
-            work_width: int, motion_out: Path | None,
-            motion_in: Path | None, preview: Path | None, stmap: Path | None,
-            preset: str | None, as_json: bool, codec: str, crf: int, x264_preset: str,
-            overwrite: bool, quiet: bool) -> None:
+def correct(input: Path, output: Path, motion_out: Path | None, motion_in: Path | None,
+            preview: Path | None, stmap: Path | None, as_json: bool, overwrite: bool,
+            quiet: bool, **options: Any) -> None:
     """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
     import time
 
-    from .motion.global_motion import BlockMatchConfig
-    from .motion.paper import PaperConfig
-    from .pipeline import CorrectionConfig, correct_video
+    from .pipeline import correct_video
 
-    if preset:
-        values = _apply_preset(click.get_current_context(), preset)
-        readout, direction, reference = values["readout"], values["direction"], values[
-            "reference"]
-        method, warp, fill, search = (values["method"], values["warp"], values["fill"],
-                                      values["search"])
-        flow_preset, work_width = values["flow_preset"], values["work_width"]
-        codec, crf, x264_preset = values["codec"], values["crf"], values["x264_preset"]
-    from .motion.dense import DenseConfig
-
-    config = CorrectionConfig(method=method, warp=warp, fill=fill,  # type: ignore[arg-type]
-                              paper=PaperConfig(BlockMatchConfig(search=search)),
-                              dense=DenseConfig(flow_preset=flow_preset,
-                                                work_width=work_width))
+    readout, direction, reference, config, encode = _settings(options)
     if readout is not None and str(readout).strip().lower() != "auto" and not input.is_dir():
         parse_readout(str(readout), 30.0)  # validate early, before opening anything
     messages: list[str] = []
@@ -192,8 +215,8 @@ def correct(input: Path, output: Path, readout: str | None, direction: str, refe
     t0 = time.perf_counter()
     with _progress("correcting", quiet or as_json) as progress:
         traj = correct_video(input, output, readout=readout, direction=direction,
-                             reference=reference, config=config,
-                             encode=EncodeOptions(codec, crf, x264_preset), overwrite=overwrite,
+                             reference=reference, config=config, encode=encode,
+                             overwrite=overwrite,
                              motion_out=motion_out, progress=progress, log=log,
                              motion_in=motion_in, preview=preview, stmap=stmap)
     seconds = time.perf_counter() - t0
@@ -373,16 +396,7 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
 @click.argument("inputs", nargs=-1, required=True)
 @click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
               help="Output folder; outputs are named after the inputs.")
-@_timing_options
-@click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
-              show_default=True)
-@click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
-              show_default=True)
-@click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
-              show_default=True)
-@click.option("--codec", default="libx264", show_default=True)
-@click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
-@click.option("--x264-preset", default="medium", show_default=True)
+@_settings_options
 @click.option("--executor", "kind", type=click.Choice(["local", "dask", "ray"]),
               default="local", show_default=True,
               help="Local process pool, or an existing/local Dask or Ray cluster.")
@@ -392,20 +406,17 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
               help="JSON-lines report (default OUT_DIR/unjello-batch.jsonl).")
 @click.option("-y", "--overwrite", is_flag=True, help="Redo clips whose output exists.")
 @click.option("-q", "--quiet", is_flag=True)
-def batch(inputs: tuple[str, ...], out_dir: Path, readout: str | None, direction: str,
-          reference: str, method: str, warp: str, fill: str, codec: str, crf: int,
-          x264_preset: str, kind: str, address: str | None, workers: int | None,
-          report: Path | None, overwrite: bool, quiet: bool) -> None:
+def batch(inputs: tuple[str, ...], out_dir: Path, kind: str, address: str | None,
+          workers: int | None, report: Path | None, overwrite: bool, quiet: bool,
+          **settings: Any) -> None:
     """Correct many clips (files, folders, globs) into OUT_DIR; resumable."""
     from .batch import run_batch
-    from .pipeline import CorrectionConfig
 
+    readout, direction, reference, config, encode = _settings(settings)
     if readout is not None and readout.strip().lower() != "auto":
         parse_readout(readout, 30.0)
     options = {"readout": readout, "direction": direction, "reference": reference,
-               "config": CorrectionConfig(method=method, warp=warp,  # type: ignore[arg-type]
-                                          fill=fill),  # type: ignore[arg-type]
-               "encode": EncodeOptions(codec, crf, x264_preset)}
+               "config": config, "encode": encode}
 
     def show(row: dict) -> None:
         if not quiet:

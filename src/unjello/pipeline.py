@@ -37,11 +37,12 @@ from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import (
     Fill,
     WarpMode,
+    apply_maps,
     field_maps,
-    remap_field,
+    remap_maps,
     resample_displacement,
     resize_maps,
-    warp_image,
+    splat,
 )
 
 __all__ = ["CorrectionConfig", "Corrector", "correct_frames", "correct_video", "correct",
@@ -173,17 +174,25 @@ class Corrector:
         for plane in planes:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
-            if maps is not None and motion.field is not None:
-                if (ph, pw) not in sized:  # U and V share their maps
-                    sized[(ph, pw)] = resize_maps(*maps, ph, pw)
-                res = remap_field(tb, motion.field, fill=self.config.fill,
-                                  maps=sized[(ph, pw)])
+            if maps is None and self.config.warp == "splat":
+                res, _ = splat(tb, self._plane_displacement(motion, ph, pw, h, w),
+                               fill=self.config.fill)
             else:
-                disp = motion.displacement if (ph, pw) == (h, w) else resample_displacement(
-                    motion.displacement, ph, pw / w, ph / h)
-                res, _ = warp_image(tb, disp, mode=self.config.warp, fill=self.config.fill)
+                if (ph, pw) not in sized:  # U and V share their maps
+                    sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
+                        remap_maps(self._plane_displacement(motion, ph, pw, h, w), pw))
+                res = apply_maps(tb, sized[(ph, pw)], fill=self.config.fill)
             out.append(from_top_bottom(res, d))
         return out
+
+
+    @staticmethod
+    def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int
+                            ) -> np.ndarray:
+        """Return the per-scanline displacement for a plane of ``ph x pw`` (4:2:0 chroma)."""
+        if (ph, pw) == (h, w):
+            return motion.displacement
+        return resample_displacement(motion.displacement, ph, pw / w, ph / h)
 
 
 class _Replay:

@@ -30,7 +30,7 @@ import numpy as np
 from .timing import SensorTiming
 
 __all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
-           "remap", "warp_image", "fill_holes", "remap_field", "field_maps",
+           "remap", "apply_maps", "fill_holes", "field_maps",
            "resize_maps", "remap_maps"]
 
 Fill = Literal["black", "nearest"]
@@ -121,6 +121,23 @@ def remap_maps(displacement: np.ndarray, width: int) -> tuple[np.ndarray, np.nda
     return map_x, np.ascontiguousarray(map_y)
 
 
+def apply_maps(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray], fill: Fill = "nearest"
+               ) -> np.ndarray:
+    """Backward warp ``out(p) = image(maps(p))``, bilinear (:func:`cv2.remap`).
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+    maps : tuple of ndarray of shape (h, w), float32
+        Source x and y of every output pixel.
+    fill : {'nearest', 'black'}
+        What to put where the source lies outside the frame.
+    """
+    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
+    return cv2.remap(image, maps[0], maps[1], cv2.INTER_LINEAR, borderMode=border,
+                     borderValue=0)
+
+
 def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
           ) -> tuple[np.ndarray, np.ndarray]:
     """Backward warp of eq. 26's displacement with bilinear ``cv2.remap``.
@@ -143,8 +160,7 @@ def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
     """
     h, w = image.shape[:2]
     map_x, map_y = remap_maps(displacement, w)
-    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
-    out = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
+    out = apply_maps(image, (map_x, map_y), fill)
     valid = (map_x >= -0.5) & (map_x <= w - 0.5) & (map_y >= -0.5) & (map_y <= h - 0.5)
     return out, valid
 
@@ -259,26 +275,6 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
     return out.astype(image.dtype), valid
 
 
-def warp_image(image: np.ndarray, displacement: np.ndarray, *, mode: WarpMode = "remap",
-               fill: Fill = "nearest") -> tuple[np.ndarray, np.ndarray]:
-    """Correct one image (top-bottom orientation) by the per-scanline displacement.
-
-    Parameters
-    ----------
-    image : ndarray of shape (h, w[, c])
-    displacement : ndarray of shape (h, 2)
-    mode : {'remap', 'splat'}
-    fill : {'nearest', 'black'}
-
-    Returns
-    -------
-    out, valid : see :func:`remap` and :func:`splat`.
-    """
-    if mode == "splat":
-        return splat(image, displacement, fill)
-    return remap(image, displacement, fill)
-
-
 def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01
                ) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
@@ -330,28 +326,3 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
     my = (map_y + np.float32(0.5)) * sy - np.float32(0.5)
     return (cv2.resize(mx, (width, height), interpolation=cv2.INTER_LINEAR),
             cv2.resize(my, (width, height), interpolation=cv2.INTER_LINEAR))
-
-
-def remap_field(image: np.ndarray, field: np.ndarray, fill: Fill = "nearest",
-                maps: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """Dense backward warp: every pixel moved by its own eq. 26 displacement.
-
-    Parameters
-    ----------
-    image : ndarray of shape (H, W[, c])
-    field : ndarray of shape (h, w, 2)
-        ``p = s - field(s)``, possibly at a lower resolution than the image (the maps are
-        then solved at the field's resolution and interpolated: the field is smooth).
-    fill : {'nearest', 'black'}
-    maps : tuple of ndarray, optional
-        Precomputed :func:`field_maps` of ``field``, already at the image's size.
-
-    Returns
-    -------
-    ndarray like ``image``
-        The corrected frame.
-    """
-    h, w = image.shape[:2]
-    mx, my = maps if maps is not None else resize_maps(*field_maps(field), h, w)
-    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
-    return cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=border, borderValue=0)

@@ -30,8 +30,8 @@ replaces the motion model:
 
 Each pixel ``s`` then belongs at ``p = s - D(s)`` with
 ``D(s) = c(t_s) - c(t_ref) - R_s(t_ref)`` (eq. 26 per pixel), applied by the dense
-backward warp :func:`unjello.warp.remap_field`. No still first frame is assumed: every
-frame is corrected to its own reference time.
+backward warp (:func:`unjello.warp.field_maps`, :func:`unjello.warp.apply_maps`). No
+still first frame is assumed: every frame is corrected to its own reference time.
 """
 
 from __future__ import annotations
@@ -79,6 +79,11 @@ class DenseConfig:
     fill_sigma : float
         Where the flow is unreliable, the residual motion is the Gaussian-weighted
         average (this sigma, px) of the reliable residuals around it.
+    per_pixel : bool
+        Model each pixel's residual motion (parallax, moving objects) on top of the
+        camera trajectory. False: the camera trajectory and row velocity alone, one
+        displacement per scanline -- one flow per frame and a per-scanline warp, for
+        speed (``--camera-only``).
     """
 
     flow_preset: str = "medium"
@@ -89,6 +94,7 @@ class DenseConfig:
     consistency: float = 10.0
     finest_scale: int | None = None
     fill_sigma: float = 12.0
+    per_pixel: bool = True
 
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
@@ -131,12 +137,22 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     return flow
 
 
+def _landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each pixel's flow lands (x, y), and whether that is inside the frame."""
+    h, w = flow.shape[:2]
+    gx = np.arange(w, dtype=np.float32)[None, :] + flow[..., 0]
+    gy = np.arange(h, dtype=np.float32)[:, None] + flow[..., 1]
+    return gx, gy, (gx >= 0) & (gx <= w - 1) & (gy >= 0) & (gy <= h - 1)
+
+
+def _lands_inside(flow: np.ndarray) -> np.ndarray:
+    """Pixels whose flow lands inside the frame."""
+    return _landing(flow)[2]
+
+
 def _consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     """Pixels whose flow lands inside the frame and comes back within ``tol`` px."""
-    h, w = fwd.shape[:2]
-    gx = np.arange(w, dtype=np.float32)[None, :] + fwd[..., 0]
-    gy = np.arange(h, dtype=np.float32)[:, None] + fwd[..., 1]
-    inside = (gx >= 0) & (gx <= w - 1) & (gy >= 0) & (gy <= h - 1)
+    gx, gy, inside = _landing(fwd)
     back = cv2.remap(bwd, gx, gy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     err = np.hypot(fwd[..., 0] + back[..., 0], fwd[..., 1] + back[..., 1])
     return inside & (err <= tol)
@@ -440,9 +456,16 @@ class DenseMethod:
         self._count += 1
         if self._frames:
             prev = self._frames[-1]
-            cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flow_pair(prev.image, cur.image,
-                                                                   self.config)
+            if self.config.per_pixel:
+                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flow_pair(prev.image, cur.image,
+                                                                       self.config)
+            else:  # rows only: one flow, its robust row summary rejects the outliers
+                cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
+                                       self.config.finest_scale)
+                cur.bwd_ok = _lands_inside(cur.bwd)
             cur.rows = self._row_equations(prev, cur)
+            if not self.config.per_pixel:
+                cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
         self._frames.append(cur)
         return self._ready(final=False)
 
@@ -516,11 +539,25 @@ class DenseMethod:
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
         velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
             np.zeros((h, 2)))
+        u_rows = np.zeros((h, 2))
         if u.shape[0]:
             knots = np.linspace(0, 1, u.shape[0])
             frac_rows = np.arange(h) / max(h - 1, 1)
-            velocity = velocity + np.stack(
-                [np.interp(frac_rows, knots, u[:, k]) for k in range(2)], axis=1)
+            u_rows = np.stack([np.interp(frac_rows, knots, u[:, k]) for k in range(2)], axis=1)
+        velocity = velocity + u_rows
+        full_h, full_w = self._full
+        scale = np.array([full_w / w, full_h / h], dtype=np.float32)
+        rows_full = (np.arange(full_h) + 0.5) * h / full_h - 0.5
+
+        def to_full_rows(values: np.ndarray) -> np.ndarray:
+            return np.stack([np.interp(rows_full, np.arange(h), values[:, k])
+                             for k in range(2)], axis=1) * scale
+
+        if not self.config.per_pixel:
+            # Eq. 26 per scanline: the camera's displacement plus the row velocity's.
+            disp_rows = cam_disp + u_rows * (t_rows - t_ref)[:, None]
+            return FrameMotion(fr.index, fr.start, to_full_rows(disp_rows),
+                               to_full_rows(velocity), ok=True)
         # Per-pixel residual of the flow on each side, relative to the camera.
         ys = np.arange(h, dtype=np.float32)[:, None]
         t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
@@ -563,15 +600,8 @@ class DenseMethod:
         frac = float(fallback.mean())
         note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
             frac > 0.05) else ""
-        # Back to the full frame: field in full-frame pixels, per-row values per full row.
-        full_h, full_w = self._full
-        scale = np.array([full_w / w, full_h / h], dtype=np.float32)
+        # Back to the full frame: per-row values per full row, field in full-frame pixels.
+        disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
         field *= scale
-        rows_full = (np.arange(full_h) + 0.5) * h / full_h - 0.5
-        med = np.median(field[:, ::4], axis=1)  # the per-row summary needs no every pixel
-        disp = np.stack([np.interp(rows_full, np.arange(h), med[:, k]) for k in range(2)],
-                        axis=1)
-        vel = np.stack([np.interp(rows_full, np.arange(h), velocity[:, k]) for k in range(2)],
-                       axis=1) * scale
-        return FrameMotion(fr.index, fr.start, disp, vel, ok=True, note=note, fallback=frac,
-                           field=field)
+        return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
+                           note=note, fallback=frac, field=field)
