@@ -88,6 +88,9 @@ class CorrectionConfig:
 
 
 def _luma255(image: np.ndarray, max_value: float) -> np.ndarray:
+    """Grey 0-255 of a plane or colour image; 8-bit luma is passed through as is."""
+    if image.ndim == 2 and image.dtype == np.uint8 and max_value == 255:
+        return image  # the methods convert after their own downscaling
     img = image
     if img.ndim == 3:
         rgb = img[..., :3]
