@@ -139,6 +139,7 @@ class Corrector:
         else:
             self._method = DenseMethod(timing, config.dense)
         self._held: deque[list[np.ndarray]] = deque()
+        self._maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
     def push(self, planes: Sequence[np.ndarray], start: float
              ) -> list[tuple[list[np.ndarray], FrameMotion]]:
@@ -183,11 +184,18 @@ class Corrector:
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
-                        remap_maps(self._plane_displacement(motion, ph, pw, h, w), pw))
+                        remap_maps(self._plane_displacement(motion, ph, pw, h, w), pw,
+                                   out=self._buffers(ph, pw)))
                 res = apply_maps(tb, sized[(ph, pw)], fill=self.config.fill)
             out.append(from_top_bottom(res, d))
         return out
 
+
+    def _buffers(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+        """Map buffers for planes of ``h x w``, reused from frame to frame."""
+        if (h, w) not in self._maps:
+            self._maps[(h, w)] = (np.empty((h, w), np.float32), np.empty((h, w), np.float32))
+        return self._maps[(h, w)]
 
     @staticmethod
     def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int

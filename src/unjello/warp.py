@@ -110,15 +110,30 @@ def _inverse_rows(displacement: np.ndarray) -> np.ndarray:
     return s
 
 
-def remap_maps(displacement: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """Backward maps ``(map_x, map_y)`` of shape (h, w) for :func:`cv2.remap`."""
+def remap_maps(displacement: np.ndarray, width: int,
+               out: tuple[np.ndarray, np.ndarray] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps ``(map_x, map_y)`` of shape (h, w) for :func:`cv2.remap`.
+
+    Parameters
+    ----------
+    displacement : ndarray of shape (h, 2)
+        Per-scanline ``Delta`` (eq. 26).
+    width : int
+        Width of the plane.
+    out : tuple of ndarray, optional
+        Float32 buffers of shape (h, w) to fill (saves allocating them every frame).
+    """
     h = displacement.shape[0]
     sy = _inverse_rows(displacement)
     rows = np.arange(h, dtype=np.float64)
-    dx = np.interp(sy, rows, displacement[:, 0])
-    map_x = (np.arange(width, dtype=np.float32)[None, :] + dx[:, None].astype(np.float32))
-    map_y = np.broadcast_to(sy[:, None].astype(np.float32), (h, width))
-    return map_x, np.ascontiguousarray(map_y)
+    dx = np.interp(sy, rows, displacement[:, 0]).astype(np.float32)
+    if out is None:
+        out = (np.empty((h, width), np.float32), np.empty((h, width), np.float32))
+    map_x, map_y = out
+    np.add(np.arange(width, dtype=np.float32)[None, :], dx[:, None], out=map_x)
+    np.copyto(map_y, sy.astype(np.float32)[:, None])
+    return map_x, map_y
 
 
 def apply_maps(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray], fill: Fill = "nearest"

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import sparse
+from scipy import linalg, sparse
 from threadpoolctl import ThreadpoolController
 
 from ..timing import SensorTiming
@@ -76,7 +76,12 @@ class DenseConfig:
     smoothness : float
         Weight of the second-difference penalty on the camera trajectory.
     window : int
-        Frame pairs on each side of a frame used to solve its camera trajectory.
+        Frame pairs after a frame used to solve its camera trajectory (the look-ahead:
+        a frame's motion is final this many frames later).
+    history : int
+        Frame pairs before a frame used too. Vibration near the frame rate (31 Hz at
+        30 fps) barely changes from frame to frame; telling it apart takes about one beat
+        period of history (30 frames at 31 Hz).
     consistency : float
         Forward-backward flow disagreement (px) above which a pixel is unreliable.
     finest_scale : int, optional
@@ -96,6 +101,7 @@ class DenseConfig:
     grid: int = 64
     smoothness: float = 0.01
     window: int = 2
+    history: int = 2
     consistency: float = 10.0
     finest_scale: int | None = None
     fill_sigma: float = 12.0
@@ -173,10 +179,37 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def _second_difference_gram(n: int) -> np.ndarray:
+def _second_difference_gram(n: int) -> sparse.csr_matrix:
     """``D2^T D2`` for the second-difference operator on ``n`` samples (pentadiagonal)."""
     d2 = sparse.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(n - 2, n))
-    return (d2.T @ d2).toarray()
+    return (d2.T @ d2).tocsr()
+
+
+def _solve_bordered_banded(a: sparse.spmatrix, b: np.ndarray, c: np.ndarray,
+                           rhs: np.ndarray) -> np.ndarray:
+    """Solve ``[[a, b], [b^T, c]] x = rhs`` with ``a`` banded and symmetric positive definite.
+
+    The trajectory block ``a`` couples samples about one frame interval apart, so it is
+    banded; the few row-velocity unknowns border it. Banded Cholesky of ``a`` and the
+    Schur complement of the border keep the cost linear in the window's length, so long
+    windows (needed to resolve vibration near the frame rate) stay cheap.
+    """
+    n, k = a.shape[0], c.shape[0]
+    upper = sparse.triu(a).tocoo()
+    upper.sum_duplicates()
+    bw = int((upper.col - upper.row).max()) if upper.nnz else 0
+    if bw > n // 3:  # hardly banded: a dense solve is as good
+        full = np.block([[a.toarray(), b], [b.T, c]]) if k else a.toarray()
+        return np.linalg.solve(full, rhs)
+    band = np.zeros((bw + 1, n))
+    band[bw + upper.row - upper.col, upper.col] = upper.data
+    factor = linalg.cholesky_banded(band)
+    x = linalg.cho_solve_banded((factor, False), np.concatenate([b, rhs[:n]], axis=1))
+    if not k:
+        return x
+    ainv_b, ainv_r = x[:, :k], x[:, k:]
+    u = np.linalg.solve(c - b.T @ ainv_b, rhs[n:] - b.T @ ainv_r)
+    return np.concatenate([ainv_r - ainv_b @ u, u])
 
 
 @dataclass(frozen=True)
@@ -265,19 +298,24 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     aw = sparse.csr_matrix((np.concatenate([v * sw for _, v in terms]),
                             (np.tile(r, len(terms)), np.concatenate([c for c, _ in terms]))),
                            shape=(m, n + k))
-    ata = (aw.T @ aw).toarray()
+    ata = (aw.T @ aw).tocsr()
     atb = aw.T @ (delta * sw[:, None])
     scale = weight.sum()
     # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
-    ata[:n, :n] += smoothness * scale / step**3 * _second_difference_gram(n)
+    a_cc = ata[:n, :n] + smoothness * scale / step**3 * _second_difference_gram(n)
+    b_cu = ata[:n, n:].toarray()
+    c_uu = ata[n:, n:].toarray()
     if k:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        ata[n:, n:] += 1e-3 * scale * _second_difference_gram(k) + 1e-4 * scale * np.eye(k)
-    ata += 1e-9 * np.eye(n + k) * (np.trace(ata) / (n + k) + 1e-12)
+        c_uu += (1e-3 * scale * _second_difference_gram(k).toarray()
+                 + 1e-4 * scale * np.eye(k))
+    jitter = 1e-9 * ((a_cc.diagonal().sum() + np.trace(c_uu)) / (n + k) + 1e-12)
+    a_cc = a_cc + jitter * sparse.eye(n)
+    c_uu += jitter * np.eye(k)
     with _BLAS.limit(limits=1, user_api="blas"):
-        sol = np.linalg.solve(ata, atb)
+        sol = _solve_bordered_banded(a_cc, b_cu, c_uu, np.asarray(atb))
     # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
-    cost = float(((delta * sw[:, None]) ** 2).sum() - (sol * atb).sum())
+    cost = float(((delta * sw[:, None]) ** 2).sum() - (sol * np.asarray(atb)).sum())
     c, u = sol[:n], sol[n:]
     return CameraSolution(t0, step, c - c.mean(axis=0), u, cost)
 
@@ -428,7 +466,6 @@ class _Frame:
     fwd: np.ndarray | None = None  # flow to the next frame
     bwd_ok: np.ndarray | None = None
     fwd_ok: np.ndarray | None = None
-    rows: tuple | None = None  # per-row equations of the pair (index-1, index)
 
 
 class DenseMethod:
@@ -446,6 +483,7 @@ class DenseMethod:
         self.timing = timing
         self.config = config
         self._frames: deque[_Frame] = deque()
+        self._equations: deque[tuple[int, tuple]] = deque()  # (frame, its pair's rows)
         self._count = 0
         self._next_out = 0
         self._full: tuple[int, int] = (0, 0)
@@ -471,7 +509,7 @@ class DenseMethod:
                 cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
                                        self.config.finest_scale)
                 cur.bwd_ok = _lands_inside(cur.bwd)
-            cur.rows = self._row_equations(prev, cur)
+            self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
         self._frames.append(cur)
@@ -499,14 +537,15 @@ class DenseMethod:
             fr = next(f for f in self._frames if f.index == n)
             out.append(self._emit(fr))
             self._next_out += 1
-            while self._frames and self._frames[0].index < n - self.config.window:
+            while self._frames and self._frames[0].index < n:  # n - 1 stays for n + 1
                 self._frames.popleft()
+            while self._equations and self._equations[0][0] <= n + 1 - self.config.history:
+                self._equations.popleft()
         return out
 
     def _camera(self, n: int) -> CameraSolution | None:
-        eqs = [f.rows for f in self._frames
-               if f.rows is not None and abs(f.index - n) <= self.config.window
-               and f.index - 1 >= n - self.config.window and len(f.rows[0])]
+        eqs = [rows for index, rows in self._equations
+               if n - self.config.history < index <= n + self.config.window and len(rows[0])]
         if not eqs:
             return None
         t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
