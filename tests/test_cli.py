@@ -144,6 +144,12 @@ def test_preset_fast_is_camera_only(tmp_path, clip):
     assert doc["frames"] and all("field" not in f for f in doc["frames"])
 
 
+def test_vibration_on_a_clip_shorter_than_its_window(tmp_path, clip):
+    res = run("correct", clip, "-o", tmp_path / "v.mp4", "--preset", "drone", "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["frames"] == 6
+
+
 def test_probe_json(clip):
     res = run("probe", clip, "--json")
     assert res.returncode == 0, res.stderr

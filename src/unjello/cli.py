@@ -31,9 +31,12 @@ PRESETS: dict[str, dict[str, Any]] = {
     # Transcode-rate speed: the camera trajectory alone (no per-pixel parallax), from
     # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
     "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
+    # Drones and vehicles: vibration near the frame rate (see --vibration).
+    "drone": {"vibration": True},
 }
 _PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
-                "flow_preset", "work_width", "camera_only", "codec", "crf", "x264_preset")
+                "flow_preset", "work_width", "camera_only", "vibration", "codec", "crf",
+                "x264_preset")
 
 
 def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
@@ -134,6 +137,9 @@ def _settings_options(f: Callable) -> Callable:
         click.option("--camera-only", is_flag=True,
                      help="Dense method: camera trajectory only, one displacement per "
                           "scanline (fast; no per-pixel parallax or moving objects)."),
+        click.option("--vibration", is_flag=True,
+                     help="Dense method: follow vibration near the frame rate (drone jello) "
+                          "with a 1 s window; clips of 2 s or more."),
         click.option("--preset",
                      help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file with "
                           "the same keys as these options; the command line wins."),
@@ -153,7 +159,7 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
     -------
     readout, direction, reference, CorrectionConfig, EncodeOptions
     """
-    from .motion.dense import DenseConfig
+    from .motion.dense import VIBRATION, DenseConfig
     from .motion.global_motion import BlockMatchConfig
     from .motion.paper import PaperConfig
     from .pipeline import CorrectionConfig
@@ -166,7 +172,8 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
                               paper=PaperConfig(BlockMatchConfig(search=v["search"])),
                               dense=DenseConfig(flow_preset=v["flow_preset"],
                                                 work_width=v["work_width"],
-                                                per_pixel=not v["camera_only"]))
+                                                per_pixel=not v["camera_only"],
+                                                **(VIBRATION if v["vibration"] else {})))
     return (v["readout"], v["direction"], v["reference"], config,
             EncodeOptions(v["codec"], v["crf"], v["x264_preset"]))
 

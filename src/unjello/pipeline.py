@@ -1,8 +1,10 @@
 """Streaming pipeline: reader -> motion method -> warper -> writer.
 
 Only :mod:`unjello.io` touches files; this module wires it to the pure-array core and
-keeps memory bounded: the motion method lags two frames behind the reader, so at most
-a handful of frames are held, however long the clip.
+keeps memory bounded: the motion method lags a fixed number of frames behind the reader
+(two for the paper's method, the dense method's look-ahead -- four at the start of a clip,
+two after; about 32 with ``vibration``), so that many frames are held, however long the
+clip.
 """
 
 from __future__ import annotations
