@@ -34,7 +34,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from scipy.optimize import curve_fit
 
 from .errors import InputError
 from .timing import to_top_bottom
@@ -92,6 +91,8 @@ def band_period(image: np.ndarray, direction: str = "top-bottom") -> tuple[float
     InputError
         If no periodic banding is found.
     """
+    from scipy.optimize import curve_fit  # imported on use: it is slow to import
+
     img = to_top_bottom(np.asarray(image), direction).astype(np.float64)
     if img.ndim == 3:
         img = img[..., :3].mean(axis=2)

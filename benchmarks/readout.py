@@ -1,0 +1,92 @@
+"""Readout time: the flicker measurement and the estimate from footage, against truth.
+
+1. The LED frame in ``../shared/data/readout`` (1 kHz, published readout 15.730 ms).
+2. ``estimate_readout`` (what ``--readout auto`` runs) on simulated clips with known
+   readout: hand shake, pan-then-stop, drone jello and a constant diagonal pan at
+   rho 0.3 ... 1.0; true vs estimated, confidence, and the median / worst error per
+   motion. "unsure" marks an estimate that fell back to 1.0 for lack of evidence.
+3. What it picks on the shared real and rendered sequences (no ground truth for the
+   readout beyond "about one frame interval"; the phone clip's publisher states a
+   rolling-shutter span of 33.312 ms at 30 fps, i.e. rho 1.0).
+
+Usage::
+
+    python benchmarks/readout.py [--frames 12] [--size 320x240]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from skimage import data
+
+from unjello.io.frames import read_image
+from unjello.pipeline import estimate_readout_file
+from unjello.readout import estimate_readout, readout_from_flicker
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+RHOS = (0.3, 0.5, 0.7, 0.9, 1.0)
+
+
+def motions(frames: int) -> dict[str, Motion]:
+    return {"hand shake": Motion("shake"),
+            "pan then stop": Motion("stop", speed=7.0, stop_at=frames / 2),
+            "drone jello": Motion("jello"),
+            "diagonal pan (constant)": Motion("diagonal", speed=6.1)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=12)
+    ap.add_argument("--size", default="320x240")
+    args = ap.parse_args()
+    size = tuple(int(v) for v in args.size.split("x"))
+    led = SHARED / "readout" / "led_1khz_nikon1j1_1080p30.png"
+    if led.exists():
+        r = readout_from_flicker(read_image(led), 1000.0)
+        print(f"LED frame, 1 kHz: {r.milliseconds:.3f} ms (published 15.730 ms, "
+              f"{100 * (r.milliseconds / 15.730 - 1):+.2f} %)")
+    else:
+        print(f"skipped the LED frame: {led} is absent")
+    print(f"\nestimate from footage: {args.frames} simulated frames of {size[0]}x{size[1]}; "
+          "true -> estimated (confidence)")
+    print(f"{'motion':26}" + "".join(f"{rho:>16}" for rho in RHOS) + "   median |err|  worst")
+    all_err = []
+    for name, motion in motions(args.frames).items():
+        cells, errs = [], []
+        for rho in RHOS:
+            sim = [s.rolling for s in simulate(data.astronaut(), motion, SensorTiming(rho),
+                                               args.frames, size=size)]
+            est = estimate_readout(sim, max_frames=args.frames)
+            tag = "" if est.reliable else " unsure"
+            cells.append(f"{est.readout:.3f} ({est.confidence:.2f}){tag}")
+            errs.append(abs(est.readout - rho))
+        all_err += errs
+        print(f"{name:26}" + "".join(f"{c:>16}" for c in cells)
+              + f"   {np.median(errs):12.3f}  {max(errs):5.3f}", flush=True)
+    print(f"all motions: median |err| {np.median(all_err):.3f}, worst {max(all_err):.3f}")
+    print("\nshared sequences (readout about one frame interval):")
+    seqs = {"fastec pair_01 (2 frames)": SHARED / "pairs" / "fastec" / "pair_01",
+            "carla_town05_rs (10 frames)": SHARED / "sequences" / "carla_town05_rs",
+            "spinners_rs (6 frames, still camera)": SHARED / "sequences" / "spinners_rs",
+            "phone_gyro (first 60 of 103 frames)": SHARED / "sequences" / "phone_gyro"
+                                                    / "reshape"}
+    for name, path in seqs.items():
+        if not path.exists():
+            print(f"  {name}: skipped, {path} is absent")
+            continue
+        if path.name == "pair_01":
+            est = estimate_readout([read_image(path / "rs_0.png"), read_image(path / "rs_1.png")])
+        else:
+            est = estimate_readout_file(path, max_frames=60)
+        state = "estimated" if est.reliable else "unsure, fell back to"
+        print(f"  {name}: {state} {est.readout:.3f} (confidence {est.confidence:.2f})",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
