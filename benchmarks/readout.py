@@ -54,7 +54,7 @@ def main() -> None:
         print(f"skipped the LED frame: {led} is absent")
     print(f"\nestimate from footage: {args.frames} simulated frames of {size[0]}x{size[1]}; "
           "true -> estimated (confidence)")
-    print(f"{'motion':26}" + "".join(f"{rho:>16}" for rho in RHOS) + "   median |err|  worst")
+    print(f"{'motion':24}" + "".join(f"{rho:>21}" for rho in RHOS) + "   median |err|  worst")
     all_err = []
     for name, motion in motions(args.frames).items():
         cells, errs = [], []
@@ -66,7 +66,7 @@ def main() -> None:
             cells.append(f"{est.readout:.3f} ({est.confidence:.2f}){tag}")
             errs.append(abs(est.readout - rho))
         all_err += errs
-        print(f"{name:26}" + "".join(f"{c:>16}" for c in cells)
+        print(f"{name:24}" + "".join(f"{c:>21}" for c in cells)
               + f"   {np.median(errs):12.3f}  {max(errs):5.3f}", flush=True)
     print(f"all motions: median |err| {np.median(all_err):.3f}, worst {max(all_err):.3f}")
     print("\nshared sequences (readout about one frame interval):")
