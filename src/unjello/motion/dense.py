@@ -37,7 +37,9 @@ still first frame is assumed: every frame is corrected to its own reference time
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -112,7 +114,7 @@ class DenseConfig:
 #: of about one beat period (31 Hz at 30 fps beats once a second) and a trajectory that may
 #: bend at scanline resolution. Costs some accuracy on parallax (about 0.10x instead of
 #: 0.04x of the uncorrected error in ``benchmarks/synthetic.py``) and a 16-frame look-ahead.
-VIBRATION = {"history": 16, "window": 16, "smoothness": 1e-7}
+VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7}
 
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
@@ -581,8 +583,8 @@ class DenseMethod:
                                        self.config.smoothness)
 
     def _emit(self, fr: _Frame, pairs: tuple[int, int]) -> FrameMotion:
+        """Frame ``fr``'s motion from the camera solve over ``pairs`` and its own flows."""
         h, w = fr.image.shape
-        rho = self.timing.readout
         t_rows = self.timing.row_times(h, fr.start)
         t_ref = self.timing.reference_time(h, fr.start)
         cam = self._camera(pairs)
@@ -632,7 +634,33 @@ class DenseMethod:
             disp_rows = cam_disp + u_rows * (t_rows - t_ref)[:, None]
             return FrameMotion(fr.index, fr.start, to_full_rows(disp_rows),
                                to_full_rows(velocity), ok=True)
-        # Per-pixel residual of the flow on each side, relative to the camera.
+        field_resid, fallback = self._residual(fr, t_rows, t_ref, cam_rows, c_at_pixels)
+        field = cam_disp[:, None, :] - field_resid
+        frac = float(fallback.mean())
+        note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
+            frac > 0.05) else ""
+        # Back to the full frame: per-row values per full row, field in full-frame pixels.
+        disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
+        field *= scale
+        return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
+                           note=note, fallback=frac, field=field)
+
+    def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
+                  c_at_pixels: Callable[[np.ndarray], np.ndarray]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Each pixel's motion beyond the camera's, carried to the reference time.
+
+        Returns
+        -------
+        field_resid : ndarray of shape (h, w, 2)
+            Quadratic through the residual flows to both neighbours (linear with one);
+            unreliable pixels take their reliable neighbours' (Gaussian average), then a
+            5x5 median.
+        fallback : ndarray of bool, shape (h, w)
+            Pixels whose flow was unreliable on both sides.
+        """
+        h, w = fr.image.shape
+        rho = self.timing.readout
         ys = np.arange(h, dtype=np.float32)[:, None]
         t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
         c_s = cam_rows[:, None, :]
@@ -657,25 +685,12 @@ class DenseMethod:
             quad = la[..., None] * ra + lb[..., None] * rb
             np.copyto(field_resid, quad, where=both[..., None])
             fallback &= ~both
-            for t_o, r, ok in sides:
-                only = ok & fallback
-                lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
-                np.copyto(field_resid, lin, where=only[..., None])
-                fallback &= ~only
-        elif len(sides) == 1:
-            t_o, r, ok = sides[0]
+        for t_o, r, ok in sides:  # one side only: the straight line through it
+            only = ok & fallback
             lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
-            np.copyto(field_resid, lin, where=ok[..., None])
-            fallback &= ~ok
+            np.copyto(field_resid, lin, where=only[..., None])
+            fallback &= ~only
         field_resid = _fill_unreliable(field_resid, ~fallback, self.config.fill_sigma)
         for k in range(2):
             field_resid[..., k] = cv2.medianBlur(np.ascontiguousarray(field_resid[..., k]), 5)
-        field = cam_disp[:, None, :] - field_resid
-        frac = float(fallback.mean())
-        note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
-            frac > 0.05) else ""
-        # Back to the full frame: per-row values per full row, field in full-frame pixels.
-        disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
-        field *= scale
-        return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, field=field)
+        return field_resid, fallback
