@@ -3,6 +3,7 @@ import pytest
 
 from unjello.timing import SensorTiming
 from unjello.warp import (
+    fill_from_neighbours,
     fill_holes,
     remap,
     resample_displacement,
@@ -87,3 +88,20 @@ def test_resample_displacement_for_chroma():
     assert c.shape == (50, 2)
     assert c[0, 0] == pytest.approx(0.5 * np.interp(0.5, np.arange(100), d[:, 0]))
 
+
+def test_fill_from_neighbours_takes_what_the_frame_missed():
+    # The frame sees columns 10-59 of a scene, its neighbour columns 0-49: the flow from
+    # the frame to the neighbour is +10 px. Output pixels whose source is left of the
+    # frame must come from the neighbour, exactly.
+    rng = np.random.default_rng(1)
+    scene = rng.uniform(0, 255, (40, 70)).astype(np.float32)
+    frame, neighbour = scene[:, 10:60].copy(), scene[:, 0:50].copy()
+    h, w = frame.shape
+    mx = np.tile(np.arange(w, dtype=np.float32) - 5, (h, 1))
+    my = np.tile(np.arange(h, dtype=np.float32)[:, None], (1, w))
+    out = np.zeros_like(frame)
+    flow = np.zeros((h // 2, w // 2, 2), np.float32)
+    flow[..., 0] = 10.0
+    fill_from_neighbours(out, (mx, my), [(neighbour, flow)], (h, w))
+    assert np.allclose(out[:, :5], scene[:, 5:10], atol=1e-3)
+    assert np.all(out[:, 5:] == 0)  # sources inside the frame are left alone

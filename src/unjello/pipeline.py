@@ -41,6 +41,7 @@ from .warp import (
     WarpMode,
     apply_maps,
     field_maps,
+    fill_from_neighbours,
     remap_maps,
     resample_displacement,
     resize_maps,
@@ -142,6 +143,7 @@ class Corrector:
             self._method = DenseMethod(timing, config.dense)
         self._held: deque[list[np.ndarray]] = deque()
         self._maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._last: list[np.ndarray] | None = None  # the previous picture, as read
 
     def push(self, planes: Sequence[np.ndarray], start: float
              ) -> list[tuple[list[np.ndarray], FrameMotion]]:
@@ -166,18 +168,32 @@ class Corrector:
         out = []
         for fm in motions:
             planes = self._held.popleft()
-            out.append((self.warp(planes, fm), fm))
+            around = {-1: self._last, 1: self._held[0] if self._held else None}
+            out.append((self.warp(planes, fm, around), fm))
+            self._last = planes
         return out
 
-    def warp(self, planes: Sequence[np.ndarray], motion: FrameMotion) -> list[np.ndarray]:
-        """Warp every plane of a picture by a frame's motion (per scanline or per pixel)."""
+    def warp(self, planes: Sequence[np.ndarray], motion: FrameMotion,
+             around: dict[int, list[np.ndarray] | None] | None = None) -> list[np.ndarray]:
+        """Warp every plane of a picture by a frame's motion (per scanline or per pixel).
+
+        ``around`` maps a frame offset (-1, 1) to that neighbour's planes: with a dense
+        motion's ``neighbours`` flows, what this frame does not see is taken from them
+        (:func:`unjello.warp.fill_from_neighbours`) instead of repeating the edge.
+        """
         d = self.timing.direction
         ref = to_top_bottom(planes[0], d)
         h, w = ref.shape[:2]
         out = []
         maps = field_maps(motion.field) if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
-        for plane in planes:
+        sources: list[tuple[list[np.ndarray], np.ndarray]] = []
+        if around and self.config.fill == "nearest":
+            for k, flow in motion.neighbours:
+                pic = around.get(k)
+                if pic is not None:
+                    sources.append((pic, flow))
+        for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
             if maps is None and self.config.warp == "splat":
@@ -189,6 +205,11 @@ class Corrector:
                         remap_maps(self._plane_displacement(motion, ph, pw, h, w), pw,
                                    out=self._buffers(ph, pw)))
                 res = apply_maps(tb, sized[(ph, pw)], fill=self.config.fill)
+                if maps is not None and sources:
+                    res = fill_from_neighbours(
+                        res, sized[(ph, pw)],
+                        [(to_top_bottom(pic[i], d), flow) for pic, flow in sources
+                         if pic[i].shape == plane.shape], (h, w))
             out.append(from_top_bottom(res, d))
         return out
 
@@ -566,7 +587,7 @@ class _Extras:
 
 def _light(fm: FrameMotion) -> FrameMotion:
     """Drop the per-pixel field of a frame kept for the whole clip (flat memory)."""
-    return fm if fm.field is None else dataclasses.replace(fm, field=None)
+    return fm if fm.field is None else dataclasses.replace(fm, field=None, neighbours=())
 
 
 def _replace(tmp: Path, dst: Path) -> None:

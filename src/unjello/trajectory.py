@@ -66,6 +66,10 @@ class FrameMotion:
         the full frame but possibly sampled at a lower resolution (dense motion is
         smooth; consumers interpolate it); when present it is what the warper applies,
         and ``displacement`` is its per-row median.
+    neighbours : tuple of (int, ndarray), optional
+        Dense methods: the flow from this frame to the frame ``offset`` away, shape
+        (hf, wf, 2) in full-frame pixels, for filling what this frame does not see from
+        its neighbours (not saved; dropped with ``field``).
     """
 
     index: int
@@ -76,6 +80,7 @@ class FrameMotion:
     note: str = ""
     fallback: float = 0.0
     field: np.ndarray | None = None
+    neighbours: tuple[tuple[int, np.ndarray], ...] = ()
 
     def pixel_displacement(self, width: int) -> np.ndarray:
         """Return the per-pixel displacement at full resolution, shape ``(h, width, 2)``."""

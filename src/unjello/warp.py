@@ -31,7 +31,7 @@ from .timing import SensorTiming
 
 __all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
            "remap", "apply_maps", "fill_holes", "field_maps",
-           "resize_maps", "remap_maps"]
+           "resize_maps", "remap_maps", "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -341,3 +341,61 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
     my = (map_y + np.float32(0.5)) * sy - np.float32(0.5)
     return (cv2.resize(mx, (width, height), interpolation=cv2.INTER_LINEAR),
             cv2.resize(my, (width, height), interpolation=cv2.INTER_LINEAR))
+
+
+def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear samples of ``image`` at the points ``(x, y)`` (1-D arrays)."""
+    n = x.size
+    cols = 1024
+    rows = max(1, -(-n // cols))
+    mx = np.zeros(rows * cols, np.float32)
+    my = np.zeros(rows * cols, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(image, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(rows * cols, *image.shape[2:])[:n]
+
+
+def fill_from_neighbours(out: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
+                         candidates: list[tuple[np.ndarray, np.ndarray]],
+                         full_size: tuple[int, int]) -> np.ndarray:
+    """Fill the output pixels whose source lies outside the frame from neighbouring frames.
+
+    During fast motion the reference time shows scene content that the frame's own
+    scanlines never saw (its edges). A neighbouring frame often did: the source point
+    ``s`` (outside the frame) is followed there by the frame's flow, extended past the
+    edge as the flow of the nearest pixel, and sampled where it lands inside.
+
+    Parameters
+    ----------
+    out : ndarray of shape (h, w[, c])
+        The warped plane (modified in place).
+    maps : tuple of ndarray of shape (h, w)
+        The backward maps that made ``out`` (plane pixels).
+    candidates : list of (plane, flow)
+        A neighbour's plane (same size, top-bottom) and the flow from this frame to it,
+        (hf, wf, 2) in full-frame pixels; tried in order.
+    full_size : tuple of int
+        ``(H, W)`` of the full frame (the flow's units).
+
+    Returns
+    -------
+    ndarray
+        ``out``.
+    """
+    h, w = out.shape[:2]
+    mx, my = maps
+    missing = (mx < -0.5) | (mx > w - 0.5) | (my < -0.5) | (my > h - 0.5)
+    ys, xs = np.nonzero(missing)
+    sx, sy = mx[ys, xs], my[ys, xs]
+    for plane, flow in candidates:
+        if not ys.size:
+            break
+        hf, wf = flow.shape[:2]
+        f = _sample(flow, (sx + 0.5) * (wf / w) - 0.5, (sy + 0.5) * (hf / h) - 0.5)
+        nx = sx + f[:, 0] * (w / full_size[1])
+        ny = sy + f[:, 1] * (h / full_size[0])
+        inside = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+        out[ys[inside], xs[inside]] = _sample(plane, nx[inside], ny[inside])
+        ys, xs, sx, sy = ys[~inside], xs[~inside], sx[~inside], sy[~inside]
+    return out

@@ -642,8 +642,10 @@ class DenseMethod:
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
         field *= scale
+        neighbours = tuple((offset, flow * scale) for offset, flow in
+                           ((-1, fr.bwd), (1, fr.fwd)) if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, field=field)
+                           note=note, fallback=frac, field=field, neighbours=neighbours)
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   c_at_pixels: Callable[[np.ndarray], np.ndarray]
