@@ -5,8 +5,10 @@ from unjello.timing import SensorTiming
 from unjello.warp import (
     fill_from_neighbours,
     fill_holes,
+    neighbour_sources,
     remap,
     resample_displacement,
+    resize_maps,
     scanline_displacement,
     splat,
 )
@@ -102,6 +104,29 @@ def test_fill_from_neighbours_takes_what_the_frame_missed():
     out = np.zeros_like(frame)
     flow = np.zeros((h // 2, w // 2, 2), np.float32)
     flow[..., 0] = 10.0
-    fill_from_neighbours(out, (mx, my), [(neighbour, flow)], (h, w))
+    fill_from_neighbours(out, neighbour_sources((mx, my), [flow], (h, w)), [neighbour])
     assert np.allclose(out[:, :5], scene[:, 5:10], atol=1e-3)
     assert np.all(out[:, 5:] == 0)  # sources inside the frame are left alone
+
+
+def test_neighbour_sources_coarse_test_finds_the_same_pixels():
+    # The quick test on the coarse maps must find exactly the full-resolution pixels.
+    rng = np.random.default_rng(2)
+    cmx = (np.tile(np.arange(40, dtype=np.float32), (30, 1))
+           + rng.uniform(-3, 3, (30, 40)).astype(np.float32))
+    cmy = (np.tile(np.arange(30, dtype=np.float32)[:, None], (1, 40))
+           + rng.uniform(-3, 3, (30, 40)).astype(np.float32))
+    full = resize_maps(cmx, cmy, 90, 120)
+    # Neighbours 8 px away in all eight directions: every missing pixel lands in one.
+    flows = [np.broadcast_to(np.array([dx, dy], np.float32), (30, 40, 2)).copy()
+             for dx in (-8, 0, 8) for dy in (-8, 0, 8) if dx or dy]
+    a = neighbour_sources(full, flows, (90, 120))
+    b = neighbour_sources(full, flows, (90, 120), coarse=(cmx, cmy))
+
+    def found(parts):
+        return sorted((y, x) for p in parts for y, x in zip(p[1].tolist(), p[2].tolist(),
+                                                            strict=True))
+
+    missing = (full[0] < -0.5) | (full[0] > 119.5) | (full[1] < -0.5) | (full[1] > 89.5)
+    assert len(found(a)) == missing.sum() > 0
+    assert found(a) == found(b)

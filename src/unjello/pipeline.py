@@ -42,6 +42,7 @@ from .warp import (
     apply_maps,
     field_maps,
     fill_from_neighbours,
+    neighbour_sources,
     remap_maps,
     resample_displacement,
     resize_maps,
@@ -188,6 +189,7 @@ class Corrector:
         maps = field_maps(motion.field) if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         sources: list[tuple[list[np.ndarray], np.ndarray]] = []
+        parts: dict[tuple[int, int], list] = {}
         if around and self.config.fill == "nearest":
             for k, flow in motion.neighbours:
                 pic = around.get(k)
@@ -206,10 +208,12 @@ class Corrector:
                                    out=self._buffers(ph, pw)))
                 res = apply_maps(tb, sized[(ph, pw)], fill=self.config.fill)
                 if maps is not None and sources:
+                    if (ph, pw) not in parts:
+                        parts[(ph, pw)] = neighbour_sources(
+                            sized[(ph, pw)], [flow for _, flow in sources], (h, w), maps)
                     res = fill_from_neighbours(
-                        res, sized[(ph, pw)],
-                        [(to_top_bottom(pic[i], d), flow) for pic, flow in sources
-                         if pic[i].shape == plane.shape], (h, w))
+                        res, parts[(ph, pw)],
+                        [to_top_bottom(pic[i], d) for pic, _ in sources])
             out.append(from_top_bottom(res, d))
         return out
 

@@ -31,7 +31,7 @@ from .timing import SensorTiming
 
 __all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
            "remap", "apply_maps", "fill_holes", "field_maps",
-           "resize_maps", "remap_maps", "fill_from_neighbours"]
+           "resize_maps", "remap_maps", "neighbour_sources", "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -356,10 +356,11 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return out.reshape(rows * cols, *image.shape[2:])[:n]
 
 
-def fill_from_neighbours(out: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
-                         candidates: list[tuple[np.ndarray, np.ndarray]],
-                         full_size: tuple[int, int]) -> np.ndarray:
-    """Fill the output pixels whose source lies outside the frame from neighbouring frames.
+def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
+                      full_size: tuple[int, int],
+                      coarse: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Where to take the output pixels whose source lies outside the frame.
 
     During fast motion the reference time shows scene content that the frame's own
     scanlines never saw (its edges). A neighbouring frame often did: the source point
@@ -368,34 +369,74 @@ def fill_from_neighbours(out: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
 
     Parameters
     ----------
-    out : ndarray of shape (h, w[, c])
-        The warped plane (modified in place).
     maps : tuple of ndarray of shape (h, w)
-        The backward maps that made ``out`` (plane pixels).
-    candidates : list of (plane, flow)
-        A neighbour's plane (same size, top-bottom) and the flow from this frame to it,
-        (hf, wf, 2) in full-frame pixels; tried in order.
+        The plane's backward maps (plane pixels).
+    flows : list of ndarray
+        Flow from this frame to each neighbour, (hf, wf, 2) in full-frame pixels; a pixel
+        goes to the first neighbour that saw it.
     full_size : tuple of int
-        ``(H, W)`` of the full frame (the flow's units).
+        ``(H, W)`` of the full frame (the flows' units).
+    coarse : tuple of ndarray, optional
+        The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
+        only pixels near a coarse sample that leaves the frame can leave it, so the
+        full-resolution test is limited to those.
 
     Returns
     -------
-    ndarray
-        ``out``.
+    list of (k, ys, xs, nx, ny)
+        Output pixels ``(ys, xs)`` to take from neighbour ``k`` at ``(nx, ny)``.
     """
-    h, w = out.shape[:2]
     mx, my = maps
-    missing = (mx < -0.5) | (mx > w - 0.5) | (my < -0.5) | (my > h - 0.5)
-    ys, xs = np.nonzero(missing)
+    h, w = mx.shape
+    test = coarse if coarse is not None else maps
+    th, tw = test[0].shape
+    inside = cv2.bitwise_and(cv2.inRange(test[0], -0.5, tw - 0.5),
+                             cv2.inRange(test[1], -0.5, th - 0.5))
+    if cv2.countNonZero(inside) == th * tw:
+        return []
+    outside = cv2.bitwise_not(inside)
+    if coarse is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
+        outside = cv2.resize(cv2.dilate(outside, np.ones((3, 3), np.uint8)), (w, h),
+                             interpolation=cv2.INTER_NEAREST)
+    pts = cv2.findNonZero(outside).reshape(-1, 2)
+    xs, ys = pts[:, 0], pts[:, 1]
     sx, sy = mx[ys, xs], my[ys, xs]
-    for plane, flow in candidates:
+    if coarse is not None:
+        out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
+        xs, ys, sx, sy = xs[out], ys[out], sx[out], sy[out]
+    parts = []
+    for k, flow in enumerate(flows):
         if not ys.size:
             break
         hf, wf = flow.shape[:2]
         f = _sample(flow, (sx + 0.5) * (wf / w) - 0.5, (sy + 0.5) * (hf / h) - 0.5)
         nx = sx + f[:, 0] * (w / full_size[1])
         ny = sy + f[:, 1] * (h / full_size[0])
-        inside = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
-        out[ys[inside], xs[inside]] = _sample(plane, nx[inside], ny[inside])
-        ys, xs, sx, sy = ys[~inside], xs[~inside], sx[~inside], sy[~inside]
+        ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+        parts.append((k, ys[ok], xs[ok], nx[ok], ny[ok]))
+        ys, xs, sx, sy = ys[~ok], xs[~ok], sx[~ok], sy[~ok]
+    return parts
+
+
+def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
+                         ) -> np.ndarray:
+    """Fill ``out`` in place from neighbouring planes, as :func:`neighbour_sources` found.
+
+    Parameters
+    ----------
+    out : ndarray of shape (h, w[, c])
+        The warped plane.
+    parts : list
+        :func:`neighbour_sources` of its maps.
+    planes : list of ndarray
+        The neighbours' planes of the same size (top-bottom), in the order of the flows.
+
+    Returns
+    -------
+    ndarray
+        ``out``.
+    """
+    for k, ys, xs, nx, ny in parts:
+        if ys.size:
+            out[ys, xs] = _sample(planes[k], nx, ny)
     return out
