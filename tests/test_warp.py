@@ -103,8 +103,8 @@ def test_fill_from_neighbours_takes_what_the_frame_missed():
     my = np.tile(np.arange(h, dtype=np.float32)[:, None], (1, w))
     out = np.zeros_like(frame)
     flow = np.zeros((h // 2, w // 2, 2), np.float32)
-    flow[..., 0] = 10.0
-    fill_from_neighbours(out, neighbour_sources((mx, my), [flow], (h, w)), [neighbour])
+    flow[..., 0] = 5.0  # half-resolution grid: 10 px of the frame
+    fill_from_neighbours(out, neighbour_sources((mx, my), [flow]), [neighbour])
     assert np.allclose(out[:, :5], scene[:, 5:10], atol=1e-3)
     assert np.all(out[:, 5:] == 0)  # sources inside the frame are left alone
 
@@ -117,11 +117,11 @@ def test_neighbour_sources_coarse_test_finds_the_same_pixels():
     cmy = (np.tile(np.arange(30, dtype=np.float32)[:, None], (1, 40))
            + rng.uniform(-3, 3, (30, 40)).astype(np.float32))
     full = resize_maps(cmx, cmy, 90, 120)
-    # Neighbours 8 px away in all eight directions: every missing pixel lands in one.
+    # Neighbours 9 px away in all eight directions: every missing pixel lands in one.
     flows = [np.broadcast_to(np.array([dx, dy], np.float32), (30, 40, 2)).copy()
-             for dx in (-8, 0, 8) for dy in (-8, 0, 8) if dx or dy]
-    a = neighbour_sources(full, flows, (90, 120))
-    b = neighbour_sources(full, flows, (90, 120), coarse=(cmx, cmy))
+             for dx in (-3, 0, 3) for dy in (-3, 0, 3) if dx or dy]  # 9 px of the plane
+    a = neighbour_sources(full, flows)
+    b = neighbour_sources(full, flows, coarse=(cmx, cmy))
 
     def found(parts):
         return sorted((y, x) for p in parts for y, x in zip(p[1].tolist(), p[2].tolist(),

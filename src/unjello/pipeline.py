@@ -210,7 +210,7 @@ class Corrector:
                 if maps is not None and sources:
                     if (ph, pw) not in parts:
                         parts[(ph, pw)] = neighbour_sources(
-                            sized[(ph, pw)], [flow for _, flow in sources], (h, w), maps)
+                            sized[(ph, pw)], [flow for _, flow in sources], maps)
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)],
                         [to_top_bottom(pic[i], d) for pic, _ in sources])

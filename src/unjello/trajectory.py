@@ -68,8 +68,8 @@ class FrameMotion:
         and ``displacement`` is its per-row median.
     neighbours : tuple of (int, ndarray), optional
         Dense methods: the flow from this frame to the frame ``offset`` away, shape
-        (hf, wf, 2) in full-frame pixels, for filling what this frame does not see from
-        its neighbours (not saved; dropped with ``field``).
+        (hf, wf, 2) in pixels of its own (hf, wf) grid, for filling what this frame does
+        not see from its neighbours (not saved; dropped with ``field``).
     """
 
     index: int

@@ -357,7 +357,6 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
-                      full_size: tuple[int, int],
                       coarse: tuple[np.ndarray, np.ndarray] | None = None
                       ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Where to take the output pixels whose source lies outside the frame.
@@ -372,10 +371,8 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
     maps : tuple of ndarray of shape (h, w)
         The plane's backward maps (plane pixels).
     flows : list of ndarray
-        Flow from this frame to each neighbour, (hf, wf, 2) in full-frame pixels; a pixel
-        goes to the first neighbour that saw it.
-    full_size : tuple of int
-        ``(H, W)`` of the full frame (the flows' units).
+        Flow from this frame to each neighbour, (hf, wf, 2) in pixels of that (hf, wf)
+        grid; a pixel goes to the first neighbour that saw it.
     coarse : tuple of ndarray, optional
         The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
         only pixels near a coarse sample that leaves the frame can leave it, so the
@@ -410,8 +407,8 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
             break
         hf, wf = flow.shape[:2]
         f = _sample(flow, (sx + 0.5) * (wf / w) - 0.5, (sy + 0.5) * (hf / h) - 0.5)
-        nx = sx + f[:, 0] * (w / full_size[1])
-        ny = sy + f[:, 1] * (h / full_size[0])
+        nx = sx + f[:, 0] * (w / wf)
+        ny = sy + f[:, 1] * (h / hf)
         ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
         parts.append((k, ys[ok], xs[ok], nx[ok], ny[ok]))
         ys, xs, sx, sy = ys[~ok], xs[~ok], sx[~ok], sy[~ok]

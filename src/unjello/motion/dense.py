@@ -642,8 +642,8 @@ class DenseMethod:
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
         field *= scale
-        neighbours = tuple((offset, flow * scale) for offset, flow in
-                           ((-1, fr.bwd), (1, fr.fwd)) if flow is not None)
+        neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
+                           if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, field=field, neighbours=neighbours)
 
