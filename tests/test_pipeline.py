@@ -147,3 +147,13 @@ def test_drone_jello_vibration_mode(scene):
     _, out, _, err, unc = _run(scene, Motion("jello"), SensorTiming(1.0), n=60, config=config)
     assert len(out) == 60
     assert err.mean() <= 0.3 * unc.mean(), (err.mean(), unc.mean())
+
+
+def test_vibration_is_detected_by_default(scene):
+    # The default looks at the first 8 frame pairs and switches by itself; hand shake
+    # must not trigger it.
+    _, _, traj, err, unc = _run(scene, Motion("jello"), SensorTiming(1.0), n=60)
+    assert all(f.note.startswith("vibration detected") for f in traj.frames)
+    assert err.mean() <= 0.3 * unc.mean(), (err.mean(), unc.mean())
+    _, _, traj, _, _ = _run(scene, Motion("shake"), SensorTiming(1.0), n=12)
+    assert not any("vibration" in f.note for f in traj.frames)

@@ -32,7 +32,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
     "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
     # Drones and vehicles: vibration near the frame rate (see --vibration).
-    "drone": {"vibration": True},
+    "drone": {"vibration": "on"},
 }
 _PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
                 "flow_preset", "work_width", "camera_only", "vibration", "codec", "crf",
@@ -137,9 +137,11 @@ def _settings_options(f: Callable) -> Callable:
         click.option("--camera-only", is_flag=True,
                      help="Dense method: camera trajectory only, one displacement per "
                           "scanline (fast; no per-pixel parallax or moving objects)."),
-        click.option("--vibration", is_flag=True,
+        click.option("--vibration", type=click.Choice(["auto", "on", "off"]), default="auto",
+                     show_default=True,
                      help="Dense method: follow vibration near the frame rate (drone jello) "
-                          "with a 1 s window; clips of 2 s or more."),
+                          "with a 1 s window (best on clips of 2 s or more); 'auto' turns it "
+                          "on when the first frames wobble."),
         click.option("--preset",
                      help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file with "
                           "the same keys as these options; the command line wins."),
@@ -159,6 +161,7 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
     -------
     readout, direction, reference, CorrectionConfig, EncodeOptions
     """
+    from .errors import SettingsError
     from .motion.dense import VIBRATION, DenseConfig
     from .motion.global_motion import BlockMatchConfig
     from .motion.paper import PaperConfig
@@ -168,12 +171,16 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
     preset = v.pop("preset", None)
     if preset:
         v.update(_apply_preset(click.get_current_context(), preset))
+    vibration = {True: "on", False: "off"}.get(v["vibration"], v["vibration"])
+    if vibration not in ("auto", "on", "off"):
+        raise SettingsError(f"vibration must be auto, on or off, not {vibration!r}")
     config = CorrectionConfig(method=v["method"], warp=v["warp"], fill=v["fill"],
                               paper=PaperConfig(BlockMatchConfig(search=v["search"])),
                               dense=DenseConfig(flow_preset=v["flow_preset"],
                                                 work_width=v["work_width"],
                                                 per_pixel=not v["camera_only"],
-                                                **(VIBRATION if v["vibration"] else {})))
+                                                detect_vibration=vibration == "auto",
+                                                **(VIBRATION if vibration == "on" else {})))
     return (v["readout"], v["direction"], v["reference"], config,
             EncodeOptions(v["codec"], v["crf"], v["x264_preset"]))
 
@@ -230,6 +237,10 @@ def correct(input: Path, output: Path, motion_out: Path | None, motion_in: Path 
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
         log(f"warning: motion bridged over on {bad} frame(s)")
+    detected = next((f.note.split(";")[0] for f in traj.frames
+                     if f.note.startswith("vibration detected")), None)
+    if detected:
+        log(f"{detected}, as with --vibration on (--vibration off: never)")
     fallback = float(np.mean([f.fallback for f in traj.frames])) if len(traj) else 0.0
     if fallback > 0.1:
         log(f"warning: the flow was unreliable on {100 * fallback:.0f}% of the pixels (flat "

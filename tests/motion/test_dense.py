@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from unjello.motion.dense import invert_flow, solve_camera_trajectory
+from unjello.motion.dense import invert_flow, solve_camera_trajectory, vibration_level
 
 
 def test_invert_flow_composes_to_identity():
@@ -35,3 +35,30 @@ def test_camera_trajectory_follows_a_vibration_within_frames():
     est = np.interp(t, grid, sol.c[:, 0])
     est -= est.mean() - d(t).mean()
     assert np.abs(est - d(t)).mean() < 0.2 * np.abs(d(t) - d(t).mean()).mean()
+
+
+def test_vibration_level_tells_wobble_from_shake_and_layers():
+    # Row flows of 10 frame pairs (h = 200 rows, readout one frame), left and right
+    # halves: a 23 Hz vibration wobbles whole rows within each frame; a 3 Hz shake does
+    # not; a nearer layer sliding through the rows of one half wobbles that half only;
+    # a steady per-row pattern (a steady pan's parallax) is not motion at all.
+    h = 200
+    y = np.arange(h)
+    t = np.arange(1, 11)[:, None] + y[None] / h  # frames x rows, in frame intervals
+    steady = np.sin(y / 7.0)[None]
+
+    def rows(flow):
+        return [(y, np.stack([f, np.zeros(h)], axis=1)) for f in flow]
+
+    def level(d, layer=0.0):
+        flow = d(t) - d(t - 1) + steady
+        return vibration_level(rows(flow + layer), rows(flow), h)
+
+    jello = level(lambda s: 3 * np.sin(2 * np.pi * 23 / 30 * s))
+    shake = level(lambda s: 6 * np.sin(2 * np.pi * 3 / 30 * s))
+    sliding = ((y[None] // 20 + np.arange(10)[:, None]) % 3 == 0) * 4.0
+    layer = level(lambda s: 5 * s, layer=sliding)
+    still = level(lambda s: 0 * s)
+    assert jello[0] > 0.004 and jello[1] > 0.5
+    assert shake[0] < 0.004 or shake[1] < 0.5
+    assert layer[0] < 0.004 and still[0] < 1e-9
