@@ -217,7 +217,6 @@ class Corrector:
             out.append(from_top_bottom(res, d))
         return out
 
-
     def _buffers(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
         """Map buffers for planes of ``h x w``, reused from frame to frame."""
         if (h, w) not in self._maps:
