@@ -58,6 +58,12 @@ __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
 _BLAS = ThreadpoolController()
 
+# Up to this width the medium preset estimates flow at full resolution (its level 1 on
+# a 640 px copy is 320 px wide). Measured on 320x240 (benchmarks/synthetic.py): moving
+# object background 0.035x -> 0.016x, parallax 0.038x -> 0.019x, hand shake 0.069x ->
+# 0.063x, at 1.5-1.75x the flow's time.
+_FULL_RES_WIDTH = 480
+
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
             "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM}
@@ -88,7 +94,9 @@ class DenseConfig:
     consistency : float
         Forward-backward flow disagreement (px) above which a pixel is unreliable.
     finest_scale : int, optional
-        DIS finest pyramid level (0 = full resolution).
+        DIS finest pyramid level (0 = full resolution). Default: the preset's, except
+        that the ``medium`` preset works at full resolution on copies up to 480 px wide,
+        so that small frames get flow as fine as large ones (about 320 px across).
     fill_sigma : float
         Where the flow is unreliable, the residual motion is the Gaussian-weighted
         average (this sigma, px) of the reliable residuals around it.
@@ -191,7 +199,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     max_width : int
         Compute on frames downscaled to at most this width (0: full size).
     finest_scale : int, optional
-        DIS finest pyramid level (0 = full resolution); default the preset's.
+        DIS finest pyramid level (0 = full resolution); default the preset's, or 0 for
+        ``medium`` on (downscaled) frames up to 480 px wide.
 
     Returns
     -------
@@ -207,6 +216,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         a8 = cv2.resize(a8, size, interpolation=cv2.INTER_AREA)
         b8 = cv2.resize(b8, size, interpolation=cv2.INTER_AREA)
     dis = cv2.DISOpticalFlow_create(_PRESETS[preset])  # type: ignore[attr-defined]
+    if finest_scale is None and preset == "medium" and a8.shape[1] <= _FULL_RES_WIDTH:
+        finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     if finest_scale is not None:
         dis.setFinestScale(finest_scale)
     flow = dis.calc(a8, b8, None)
