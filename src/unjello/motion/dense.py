@@ -129,8 +129,8 @@ class DenseConfig:
 
 #: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
 #: of about one beat period (31 Hz at 30 fps beats once a second) and a trajectory that may
-#: bend at scanline resolution. Costs some accuracy on parallax (about 0.10x instead of
-#: 0.04x of the uncorrected error in ``benchmarks/synthetic.py``) and a 16-frame look-ahead.
+#: bend at scanline resolution. Costs some accuracy on parallax (0.049x instead of 0.019x
+#: of the uncorrected error in ``benchmarks/synthetic.py``) and a 16-frame look-ahead.
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7}
 
 # Vibration is detected (:func:`vibration_level`) above this wobble, as a fraction of the
