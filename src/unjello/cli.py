@@ -11,6 +11,7 @@ import json
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -95,7 +96,12 @@ def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | 
         yield update
 
 
-def _readout_option(f: Callable) -> Callable:
+def _readout_option(f: Callable, simulated: bool = False) -> Callable:
+    if simulated:
+        return click.option("--readout", default=None,
+                            help="Readout time of the simulated sensor: fraction of the frame "
+                                 "interval (0 < r <= 1) or milliseconds (15.7ms). Default "
+                                 "1.0.")(f)
     return click.option("--readout", default=None,
                         help="Readout time: fraction of the frame interval (0 < r <= 1), "
                              "milliseconds (15.7ms), or 'auto' (stated by the file, else "
@@ -103,13 +109,13 @@ def _readout_option(f: Callable) -> Callable:
                              "file's metadata states, else 1.0.")(f)
 
 
-def _timing_options(f: Callable) -> Callable:
+def _timing_options(f: Callable, simulated: bool = False) -> Callable:
     f = click.option("--reference", type=click.Choice(REFERENCES), default="middle",
                      show_default=True, help="Scanline whose time the output shows.")(f)
     f = click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
                      show_default=True, help="Order the sensor reads its lines (coded "
                                              "orientation).")(f)
-    return _readout_option(f)
+    return _readout_option(f, simulated)
 
 
 def _settings_options(f: Callable) -> Callable:
@@ -324,7 +330,7 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
               help="True trajectory JSON (default <truth>.motion.json).")
 @click.option("--motion", default="pan", show_default=True,
               help="pan, stop, diagonal, shake, jello, or a JSON trajectory file.")
-@_timing_options
+@partial(_timing_options, simulated=True)
 @click.option("--frames", type=click.IntRange(1, 100000), default=30, show_default=True)
 @click.option("--fps", type=float, help="Frame rate (default: the source's, else 30).")
 @click.option("--size", help="Output WIDTHxHEIGHT.")
