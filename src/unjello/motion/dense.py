@@ -237,11 +237,6 @@ def _landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return gx, gy, (gx >= 0) & (gx <= w - 1) & (gy >= 0) & (gy <= h - 1)
 
 
-def _lands_inside(flow: np.ndarray) -> np.ndarray:
-    """Pixels whose flow lands inside the frame."""
-    return _landing(flow)[2]
-
-
 def _consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     """Pixels whose flow lands inside the frame and comes back within ``tol`` px."""
     gx, gy, inside = _landing(fwd)
@@ -595,7 +590,7 @@ class DenseMethod:
             else:  # rows only: one flow, its robust row summary rejects the outliers
                 cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
                                        self.config.finest_scale)
-                cur.bwd_ok = _lands_inside(cur.bwd)
+                cur.bwd_ok = _landing(cur.bwd)[2]  # lands inside the frame
             self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self._decided:  # rows of each half, for the vibration test
                 half = cur.image.shape[1] // 2
