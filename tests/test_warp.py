@@ -3,6 +3,7 @@ import pytest
 
 from unjello.timing import SensorTiming
 from unjello.warp import (
+    field_maps,
     fill_from_neighbours,
     fill_holes,
     neighbour_sources,
@@ -130,3 +131,15 @@ def test_neighbour_sources_coarse_test_finds_the_same_pixels():
     missing = (full[0] < -0.5) | (full[0] > 119.5) | (full[1] < -0.5) | (full[1] > 89.5)
     assert len(found(a)) == missing.sum() > 0
     assert found(a) == found(b)
+
+
+def test_field_maps_on_a_coarse_grid_take_frame_pixels():
+    # A field sampled on a grid a third of the frame's size, its values in frame pixels
+    # (as the dense method returns it): a shift of 6 px is 2 px of that grid.
+    field = np.broadcast_to(np.array([6.0, -3.0], np.float32), (20, 30, 2))
+    mx, my = field_maps(field, frame=(60, 90))
+    assert np.allclose(mx - np.arange(30), 2.0) and np.allclose(my.T - np.arange(20), -1.0)
+    fx, fy = resize_maps(mx, my, 60, 90)
+    inner = (slice(2, -2), slice(2, -2))  # resize repeats the outermost samples
+    assert np.allclose((fx - np.arange(90))[inner], 6.0, atol=1e-4)
+    assert np.allclose((fy.T - np.arange(60))[inner[::-1]].T, -3.0, atol=1e-4)

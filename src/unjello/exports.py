@@ -19,7 +19,8 @@ __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "stmap_to_maps", "wr
 def backward_maps(motion: FrameMotion, width: int) -> tuple[np.ndarray, np.ndarray]:
     """Source position of every output pixel (top-bottom orientation), as the warper uses."""
     if motion.field is not None:
-        return resize_maps(*field_maps(motion.field), motion.displacement.shape[0], width)
+        h = motion.displacement.shape[0]
+        return resize_maps(*field_maps(motion.field, frame=(h, width)), h, width)
     return remap_maps(motion.displacement, width)
 
 

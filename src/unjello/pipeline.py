@@ -186,7 +186,7 @@ class Corrector:
         ref = to_top_bottom(planes[0], d)
         h, w = ref.shape[:2]
         out = []
-        maps = field_maps(motion.field) if motion.field is not None else None
+        maps = field_maps(motion.field, frame=(h, w)) if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         sources: list[tuple[list[np.ndarray], np.ndarray]] = []
         parts: dict[tuple[int, int], list] = {}

@@ -290,8 +290,8 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
     return out.astype(image.dtype), valid
 
 
-def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01
-               ) -> tuple[np.ndarray, np.ndarray]:
+def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
+               frame: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
 
     The source ``s`` of every output pixel ``p`` is the fixed point of
@@ -307,13 +307,21 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01
         Most fixed-point iterations.
     tol : float
         Stop once no map value moves by more than this (px).
+    frame : tuple of int, optional
+        ``(height, width)`` of the frame whose pixels the field's values are in, when the
+        field is sampled on a coarser grid (the dense method's working copy); default:
+        the field's own grid.
 
     Returns
     -------
     map_x, map_y : ndarray of shape (h, w), float32
+        Source positions in pixels of the field's grid (:func:`resize_maps` takes them
+        to a frame's size).
     """
     h, w = field.shape[:2]
     f = field.astype(np.float32)
+    if frame is not None and frame != (h, w):
+        f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
     gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
     gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
     mx, my = gx + f[..., 0], gy + f[..., 1]
