@@ -136,7 +136,7 @@ def _settings_options(f: Callable) -> Callable:
         click.option("--flow-preset", type=click.Choice(["ultrafast", "fast", "medium"]),
                      default="medium", show_default=True,
                      help="Dense method: DIS optical flow preset (speed vs accuracy)."),
-        click.option("--work-width", type=click.IntRange(0, 100000), default=640,
+        click.option("--work-width", type=click.IntRange(0, 100000), default=480,
                      show_default=True,
                      help="Dense method: estimate motion on frames at most this wide "
                           "(0: full)."),

@@ -245,9 +245,10 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     if len(grey) < 3:
         return ReadoutEstimate(fallback, 0.0, False, np.zeros(0), np.zeros(0))
     h = grey[0].shape[0]
-    # Flow at DIS medium's own finest level (half resolution): the confidence threshold
-    # was calibrated with it; at full resolution pan-then-stop scored as low as 0.52.
-    cfg = DenseConfig(finest_scale=1)
+    # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
+    # wide: the confidence threshold was calibrated with it; at full resolution
+    # pan-then-stop scored as low as 0.52.
+    cfg = DenseConfig(finest_scale=1, work_width=640)
     pairs = [pair_row_flows(grey[k - 1], grey[k], cfg) for k in range(1, len(grey))]
     # Uniform motion carries no information on the readout: check there is variation.
     flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(

@@ -80,6 +80,10 @@ class DenseConfig:
     work_width : int
         Motion is estimated on frames downscaled to at most this width (0: full size);
         the per-pixel field is returned at that resolution, in full-frame pixels.
+        Measured with the medium preset (full resolution up to 480 px): against a 640 px
+        copy at its half-resolution level, 1080p runs 1.35x faster at equal or better
+        PSNR (simulated pan, shake, parallax, moving object), and the 640 px research
+        pairs gain 0.1 dB (Fastec) and 0.4 dB (Carla).
     grid : int
         Camera trajectory samples per readout time.
     smoothness : float
@@ -114,7 +118,7 @@ class DenseConfig:
     """
 
     flow_preset: str = "medium"
-    work_width: int = 640
+    work_width: int = 480
     grid: int = 64
     smoothness: float = 0.01
     window: int = 2
