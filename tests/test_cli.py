@@ -75,7 +75,10 @@ def test_empty_folder(tmp_path):
     assert "no images" in line
 
 
-def test_simulate_correct_evaluate(tmp_path, scene):
+# Motion estimated on the frame, or on a copy half its width (as HD video always is):
+# measured 25.0 -> 36.4 dB either way; 25.3 when the copy's field was misapplied.
+@pytest.mark.parametrize("work", [[], ["--work-width", "96"]])
+def test_simulate_correct_evaluate(tmp_path, scene, work):
     src = tmp_path / "scene.png"
     write_image(src, scene)
     rs, gs = tmp_path / "rs.mp4", tmp_path / "gs.mp4"
@@ -84,7 +87,8 @@ def test_simulate_correct_evaluate(tmp_path, scene):
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "gs.mp4.motion.json").exists()
     out, motion = tmp_path / "out.mp4", tmp_path / "motion.json"
-    res = run("correct", rs, "-o", out, "--readout", "0.8", "--motion-out", motion, "-q")
+    res = run("correct", rs, "-o", out, "--readout", "0.8", "--motion-out", motion, "-q",
+              *work)
     assert res.returncode == 0, res.stderr
     res = run("evaluate", out, gs, "--motion", motion, "--json", "--margin", "8")
     assert res.returncode == 0, res.stderr
@@ -92,7 +96,7 @@ def test_simulate_correct_evaluate(tmp_path, scene):
     mean = report["mean"]
     assert mean["displacement_error"] * 8 <= mean["uncorrected_error"]
     res_unc = run("evaluate", rs, gs, "--json", "--margin", "8")
-    assert mean["psnr"] > json.loads(res_unc.stdout)["mean"]["psnr"]
+    assert mean["psnr"] > json.loads(res_unc.stdout)["mean"]["psnr"] + 6
 
 
 def test_help_and_version(capsys):
