@@ -308,13 +308,13 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
     est = estimate_readout_file(input, direction=direction, max_frames=frames)
     if as_json:
         click.echo(json.dumps({"readout": est.readout, "confidence": est.confidence,
-                               "reliable": est.reliable,
+                               "reliable": est.reliable, "model": est.model,
                                "candidates": est.candidates.tolist(),
                                "costs": est.costs.tolist()}))
         return
     if est.reliable:
         click.echo(f"readout {est.readout:.3f} of the frame interval "
-                   f"(confidence {est.confidence:.2f})")
+                   f"(confidence {est.confidence:.2f}, {est.model} motion model)")
     else:
         click.echo(f"readout unknown: the motion is too weak or too uniform to tell "
                    f"(confidence {est.confidence:.2f}); default {est.readout:g}")

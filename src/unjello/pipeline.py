@@ -414,7 +414,7 @@ def _resolve_readout(src: Path, readout: float | str | None, direction: str,
     if log:
         if est.reliable:
             log(f"readout estimated from the motion: {est.readout:.3f} of the frame interval "
-                f"(confidence {est.confidence:.2f})")
+                f"(confidence {est.confidence:.2f}, {est.model} motion model)")
         else:
             log(f"warning: the motion is too weak or too uniform to estimate the readout "
                 f"(confidence {est.confidence:.2f}); using {est.readout:g}")

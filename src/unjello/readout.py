@@ -16,10 +16,26 @@ From the footage
 The readout ratio ``rho`` sets when each row is imaged (``t_n + rho y / h``). Between
 two frames, row ``y``'s content moved from row ``y'`` of the previous frame, so the
 per-row flow is a difference of the camera trajectory at two times that depend on
-``rho`` (eq. 10 with ``rho``). Under the true ``rho`` all rows of all frame pairs are
-explained by one smooth trajectory; under a wrong one the equations contradict each
-other wherever the motion changes (:func:`estimate_readout` scores each candidate by
-the regularised least-squares cost of that fit, the per-row flows being computed once).
+``rho`` (eq. 10 with ``rho``): ``c(t_a) - c(t_b) = -f``. Under the true ``rho`` all rows
+of all frame pairs are explained by one trajectory; under a wrong one the equations
+contradict each other wherever the motion changes. :func:`estimate_readout` scores
+each candidate by the cost of that fit (the per-row flows being computed once), with
+one of two trajectory models:
+
+- **smooth** (pans, stops, hand shake): a trajectory sampled finely in time with a
+  small penalty on its acceleration (regularised least squares,
+  :func:`unjello.motion.dense.solve_camera_trajectory`), four frame pairs at a time.
+- **vibration** (when the rows wobble as :func:`unjello.motion.dense.vibration_level`
+  detects it): rows only sample the readout part of each frame interval, so ``rho``
+  shows only in how the trajectory continues across the blanking, and a smoothness
+  penalty prefers the candidate that stretches a fast vibration most (long readouts).
+  Here the trajectory of twelve frame pairs is a quadratic drift plus six sinusoids of
+  any frequency up to 1.6 cycles per frame interval, chosen greedily (orthogonal
+  matching pursuit on a fine frequency grid, shared by x and y): the same number of
+  parameters for every candidate (:func:`_spectral_cost`). Vibration above the frame
+  rate aliases between frames, but each frame's rows see it unaliased, so only the true
+  ``rho`` lines both up.
+
 A constant velocity gives every ``rho`` the same cost -- the skew is the same in every
 frame, so no method can tell -- and the estimate then falls back to a default with a
 low confidence.
@@ -172,6 +188,77 @@ def readout_from_flicker(image: np.ndarray, frequency: float, *,
 #: Measured with ``benchmarks/readout.py``: 1e-3 biased pan-then-stop estimates upwards
 #: by up to 0.09, 1e-4 keeps them within 0.05; 1e-2 cannot tell any readout apart.
 _SMOOTHNESS = 1e-4
+#: Sinusoids of the vibration model, and the highest frequency they may take (cycles per
+#: frame interval: 48 Hz at 30 fps). Measured with ``benchmarks/readout.py`` on the
+#: jello clips: up to 2.5 cycles per frame, rho 0.3 was taken for 0.15 (a faster
+#: vibration read more slowly); with 4 sinusoids, hand shake came out 0.05 low.
+_SINUSOIDS = 6
+_MAX_CYCLES = 1.6
+
+
+def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray,
+                   sinusoids: int = _SINUSOIDS, max_cycles: float = _MAX_CYCLES) -> float:
+    """Residual of ``c(t_a) - c(t_b) = delta`` with ``c`` = quadratic drift + sinusoids.
+
+    Parameters
+    ----------
+    t_a, t_b : ndarray of shape (m,)
+        Times (frame intervals) of both ends of each row equation.
+    delta : ndarray of shape (m, 2)
+        Displacement of each row's content from ``t_b`` to ``t_a``.
+    weight : ndarray of shape (m,)
+        Confidence of each equation.
+    sinusoids : int
+        Sinusoids added one at a time, each at the frequency (up to ``max_cycles`` per
+        frame interval, shared by x and y) that explains most of what is left; all
+        amplitudes are refitted after each (orthogonal matching pursuit).
+    max_cycles : float
+        Highest frequency considered.
+
+    Returns
+    -------
+    float
+        Weighted residual energy after the fit.
+
+    Examples
+    --------
+    A 31 Hz vibration at 30 fps read in 0.6 of the frame interval: the true readout
+    explains every row, a wrong one does not.
+
+    >>> y = np.tile(np.linspace(0, 1, 200), 8)
+    >>> def times(rho):
+    ...     t_a = np.repeat(np.arange(1.0, 9.0), 200) + rho * y
+    ...     return t_a, t_a - 1
+    >>> c = lambda t: np.stack([np.sin(2 * np.pi * 31 / 30 * t), 0 * t], axis=1)
+    >>> ta, tb = times(0.6)
+    >>> d, w = c(ta) - c(tb), np.ones(ta.size)
+    >>> costs = {rho: _spectral_cost(*times(rho), d, w) for rho in (0.4, 0.5, 0.6, 0.7, 0.8)}
+    >>> min(costs, key=costs.get)
+    0.6
+    """
+    t0 = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
+                                                              float(t_b.max())))
+    ta, tb = t_a - t0, t_b - t0
+    sw = np.sqrt(weight)[:, None]
+    rhs = delta * sw
+    cols = [np.stack([ta - tb, ta ** 2 - tb ** 2], axis=1) * sw]  # the drift
+    resid = rhs - cols[0] @ np.linalg.lstsq(cols[0], rhs, rcond=None)[0]
+    freqs = np.arange(0.01, max_cycles, 0.0025)
+    pa, pb = (2 * np.pi) * ta[:, None] * freqs, (2 * np.pi) * tb[:, None] * freqs
+    cos = (np.cos(pa) - np.cos(pb)) * sw
+    sin = (np.sin(pa) - np.sin(pb)) * sw
+    cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
+    det = cc * ss - cs ** 2 + 1e-12
+    for _ in range(sinusoids):
+        rc, rs = cos.T @ resid, sin.T @ resid  # (frequencies, 2)
+        # Energy of the residual's projection on span{cos_f, sin_f}, x and y together.
+        gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
+                / det[:, None]).sum(axis=1)
+        f = int(np.argmax(gain))
+        cols.append(np.stack([cos[:, f], sin[:, f]], axis=1))
+        a = np.concatenate(cols, axis=1)
+        resid = rhs - a @ np.linalg.lstsq(a, rhs, rcond=None)[0]
+    return float((resid ** 2).sum())
 
 
 @dataclass(frozen=True)
@@ -189,6 +276,8 @@ class ReadoutEstimate:
     candidates : ndarray of shape (k,)
     costs : ndarray of shape (k,)
         The fit cost of each candidate (lower is better).
+    model : {'smooth', 'vibration'}
+        The trajectory model the candidates were scored with.
     """
 
     readout: float
@@ -196,6 +285,7 @@ class ReadoutEstimate:
     reliable: bool
     candidates: np.ndarray
     costs: np.ndarray
+    model: str = "smooth"
 
 
 def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bottom",
@@ -229,7 +319,15 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     -------
     ReadoutEstimate
     """
-    from .motion.dense import DenseConfig, pair_row_flows, solve_camera_trajectory
+    from .motion.dense import (
+        _WOBBLE,
+        _WOBBLE_SHARE,
+        DenseConfig,
+        flow_pair,
+        row_flows,
+        solve_camera_trajectory,
+        vibration_level,
+    )
 
     grey, times = [], []
     start_list = list(starts) if starts is not None else None
@@ -249,17 +347,28 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     # wide: the confidence threshold was calibrated with it; at full resolution
     # pan-then-stop scored as low as 0.52.
     cfg = DenseConfig(finest_scale=1, work_width=640)
-    pairs = [pair_row_flows(grey[k - 1], grey[k], cfg) for k in range(1, len(grey))]
+    pairs, halves = [], []
+    for k in range(1, len(grey)):
+        bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], cfg, cfg.work_width, two_way=True)
+        pairs.append(row_flows(bwd, ok))
+        half = bwd.shape[1] // 2
+        halves.append([row_flows(bwd[:, c], ok[:, c])[:2]
+                       for c in (slice(0, half), slice(half, None))])
+    # Vibration is told as the dense method's --vibration auto tells it (as many pairs).
+    wobble, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], h)
+    vibrating = len(pairs) >= cfg.probe and wobble >= _WOBBLE and share >= _WOBBLE_SHARE
+    window = 12 if vibrating else 4
     # Uniform motion carries no information on the readout: check there is variation.
     flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(
         p[1].size for p in pairs) else np.zeros((0, 2))
     variation = float(np.linalg.norm(flows.std(axis=0))) if len(flows) > 1 else 0.0
     candidates = np.round(np.arange(0.1, 1.0001, 0.05), 4)
     costs = np.zeros(candidates.size)
-    window = 4
     for j, rho in enumerate(candidates):
         total = 0.0
-        for k0 in range(0, len(pairs), window // 2):
+        # (the vibration model's windows overlap by half and all hold twelve pairs)
+        last = max(1, len(pairs) - window // 2) if vibrating else len(pairs)
+        for k0 in range(0, last, window // 2):
             eq = []
             for k in range(k0, min(k0 + window, len(pairs))):
                 y, med, wgt = pairs[k]
@@ -271,8 +380,9 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
             if not eq:
                 continue
             t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eq]) for i in range(4))
-            total += solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
-                                             _SMOOTHNESS).cost
+            total += _spectral_cost(t_a, t_b, delta, wgt) if vibrating else (
+                solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
+                                        _SMOOTHNESS).cost)
         costs[j] = total
     best = int(np.argmin(costs))
     rho = float(candidates[best])
@@ -287,7 +397,8 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
         confidence = 0.0
     reliable = confidence >= min_confidence
     return ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
-                           confidence, reliable, candidates, costs)
+                           confidence, reliable, candidates, costs,
+                           "vibration" if vibrating else "smooth")
 
 
 @dataclass(frozen=True)
