@@ -82,17 +82,25 @@ def main() -> None:
     print(f"all but the constant pan: median |err| {np.median(varying):.3f}, "
           f"worst {max(varying):.3f}")
     print("\nshared sequences (readout about one frame interval):")
-    seqs = {"fastec pair_01 (2 frames)": SHARED / "pairs" / "fastec" / "pair_01",
-            "carla_town05_rs (10 frames)": SHARED / "sequences" / "carla_town05_rs",
-            "spinners_rs (6 frames, still camera)": SHARED / "sequences" / "spinners_rs",
-            "phone_gyro (first 60 of 103 frames)": SHARED / "sequences" / "phone_gyro"
-                                                    / "reshape"}
+    fastec, carla = SHARED / "pairs" / "fastec", SHARED / "pairs" / "carla"
+    seqs: dict[str, Path | list[Path]] = {
+        # pair_12's second frame is pair_09's first: three consecutive frames.
+        "fastec pair_12 + pair_09 (3 frames)": [fastec / "pair_12" / "rs_0.png",
+                                                fastec / "pair_12" / "rs_1.png",
+                                                fastec / "pair_09" / "rs_1.png"],
+        "carla pair_01 (2 frames)": [carla / "pair_01" / "rs_0.png",
+                                     carla / "pair_01" / "rs_1.png"],
+        "carla_town05_rs (10 frames)": SHARED / "sequences" / "carla_town05_rs",
+        "spinners_rs (6 frames, still camera)": SHARED / "sequences" / "spinners_rs",
+        "phone_gyro (first 60 of 103 frames)": SHARED / "sequences" / "phone_gyro"
+                                                / "reshape"}
     for name, path in seqs.items():
-        if not path.exists():
-            print(f"  {name}: skipped, {path} is absent")
+        first = path[0] if isinstance(path, list) else path
+        if not first.exists():
+            print(f"  {name}: skipped, {first} is absent")
             continue
-        if path.name == "pair_01":
-            est = estimate_readout([read_image(path / "rs_0.png"), read_image(path / "rs_1.png")])
+        if isinstance(path, list):
+            est = estimate_readout([read_image(p) for p in path])
         else:
             est = estimate_readout_file(path, max_frames=60)
         state = "estimated" if est.reliable else "unsure, fell back to"
