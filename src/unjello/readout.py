@@ -196,34 +196,17 @@ _SINUSOIDS = 6
 _MAX_CYCLES = 1.6
 
 
-def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray,
-                   sinusoids: int = _SINUSOIDS, max_cycles: float = _MAX_CYCLES) -> float:
+def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray
+                   ) -> float:
     """Residual of ``c(t_a) - c(t_b) = delta`` with ``c`` = quadratic drift + sinusoids.
 
-    Parameters
-    ----------
-    t_a, t_b : ndarray of shape (m,)
-        Times (frame intervals) of both ends of each row equation.
-    delta : ndarray of shape (m, 2)
-        Displacement of each row's content from ``t_b`` to ``t_a``.
-    weight : ndarray of shape (m,)
-        Confidence of each equation.
-    sinusoids : int
-        Sinusoids added one at a time, each at the frequency (up to ``max_cycles`` per
-        frame interval, shared by x and y) that explains most of what is left; all
-        amplitudes are refitted after each (orthogonal matching pursuit).
-    max_cycles : float
-        Highest frequency considered.
-
-    Returns
-    -------
-    float
-        Weighted residual energy after the fit.
+    The sinusoids (:data:`_SINUSOIDS`, up to :data:`_MAX_CYCLES` per frame interval) are
+    picked by :func:`unjello.motion.dense.sinusoid_pursuit`.
 
     Examples
     --------
     A 31 Hz vibration at 30 fps read in 0.6 of the frame interval: the true readout
-    explains every row, a wrong one does not.
+    explains the rows best.
 
     >>> y = np.tile(np.linspace(0, 1, 200), 8)
     >>> def times(rho):
@@ -236,29 +219,13 @@ def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: 
     >>> min(costs, key=costs.get)
     0.6
     """
+    from .motion.dense import sinusoid_pursuit
+
     t0 = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
                                                               float(t_b.max())))
     ta, tb = t_a - t0, t_b - t0
-    sw = np.sqrt(weight)[:, None]
-    rhs = delta * sw
-    cols = [np.stack([ta - tb, ta ** 2 - tb ** 2], axis=1) * sw]  # the drift
-    resid = rhs - cols[0] @ np.linalg.lstsq(cols[0], rhs, rcond=None)[0]
-    freqs = np.arange(0.01, max_cycles, 0.0025)
-    pa, pb = (2 * np.pi) * ta[:, None] * freqs, (2 * np.pi) * tb[:, None] * freqs
-    cos = (np.cos(pa) - np.cos(pb)) * sw
-    sin = (np.sin(pa) - np.sin(pb)) * sw
-    cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
-    det = cc * ss - cs ** 2 + 1e-12
-    for _ in range(sinusoids):
-        rc, rs = cos.T @ resid, sin.T @ resid  # (frequencies, 2)
-        # Energy of the residual's projection on span{cos_f, sin_f}, x and y together.
-        gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
-                / det[:, None]).sum(axis=1)
-        f = int(np.argmax(gain))
-        cols.append(np.stack([cos[:, f], sin[:, f]], axis=1))
-        a = np.concatenate(cols, axis=1)
-        resid = rhs - a @ np.linalg.lstsq(a, rhs, rcond=None)[0]
-    return float((resid ** 2).sum())
+    drift = np.stack([ta - tb, ta ** 2 - tb ** 2], axis=1)
+    return sinusoid_pursuit(ta, tb, delta, weight, drift, _SINUSOIDS, _MAX_CYCLES)[1]
 
 
 @dataclass(frozen=True)

@@ -52,7 +52,8 @@ from ..trajectory import FrameMotion
 
 __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical_flow",
            "solve_camera_trajectory",
-           "pair_row_flows", "row_flows", "flow_pair", "invert_flow", "vibration_level"]
+           "pair_row_flows", "row_flows", "flow_pair", "invert_flow", "vibration_level",
+           "sinusoid_pursuit"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
@@ -303,6 +304,70 @@ def _solve_bordered_banded(a: sparse.spmatrix, b: np.ndarray, c: np.ndarray,
     ainv_b, ainv_r = x[:, :k], x[:, k:]
     u = np.linalg.solve(c - b.T @ ainv_b, rhs[n:] - b.T @ ainv_r)
     return np.concatenate([ainv_r - ainv_b @ u, u])
+
+
+def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
+                     weight: np.ndarray, base: np.ndarray, count: int,
+                     max_cycles: float = 1.6) -> tuple[np.ndarray, float]:
+    """Sinusoids of a trajectory seen through its differences ``c(t_a) - c(t_b) = delta``.
+
+    Orthogonal matching pursuit: ``count`` times, the frequency (0.01 to ``max_cycles``
+    cycles per unit of time, on a 0.0025 grid, shared by x and y) whose cosine and sine
+    explain most of what ``base`` and the sinusoids so far leave of ``delta``; then all
+    amplitudes are refitted.
+
+    Parameters
+    ----------
+    t_a, t_b : ndarray of shape (m,)
+        Times of the two ends of each equation.
+    delta : ndarray of shape (m, 2)
+        Observed differences.
+    weight : ndarray of shape (m,)
+        Confidence of each equation.
+    base : ndarray of shape (m, b)
+        Other columns of the model (``b`` may be 0), fitted with the sinusoids.
+    count : int
+        Sinusoids to pick.
+    max_cycles : float
+        Highest frequency considered.
+
+    Returns
+    -------
+    freqs : ndarray of shape (count,)
+        The frequencies picked, in order.
+    residual : float
+        Weighted residual energy of the final fit.
+
+    Examples
+    --------
+    >>> t_a = np.linspace(1, 9, 400); t_b = t_a - 1.0
+    >>> c = lambda t: np.stack([np.sin(2 * np.pi * 0.77 * t), np.cos(2 * np.pi * 1.3 * t)], 1)
+    >>> f, r = sinusoid_pursuit(t_a, t_b, c(t_a) - c(t_b), np.ones(400), np.zeros((400, 0)), 2)
+    >>> sorted(np.round(f, 2).tolist()), bool(r < 1e-9)
+    ([0.77, 1.3], True)
+    """
+    sw = np.sqrt(weight)[:, None]
+    rhs = delta * sw
+    cols = [base * sw]
+    resid = rhs - cols[0] @ np.linalg.lstsq(cols[0], rhs, rcond=None)[0] if base.shape[1] else rhs
+    grid = np.arange(0.01, max_cycles, 0.0025)
+    pa, pb = (2 * np.pi) * t_a[:, None] * grid, (2 * np.pi) * t_b[:, None] * grid
+    cos = (np.cos(pa) - np.cos(pb)) * sw
+    sin = (np.sin(pa) - np.sin(pb)) * sw
+    cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
+    det = cc * ss - cs ** 2 + 1e-12
+    picked: list[int] = []
+    for _ in range(count):
+        rc, rs = cos.T @ resid, sin.T @ resid  # (frequencies, 2)
+        # Energy of the residual's projection on span{cos_f, sin_f}, x and y together.
+        gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
+                / det[:, None]).sum(axis=1)
+        f = int(np.argmax(gain))
+        picked.append(f)
+        cols.append(np.stack([cos[:, f], sin[:, f]], axis=1))
+        a = np.concatenate(cols, axis=1)
+        resid = rhs - a @ np.linalg.lstsq(a, rhs, rcond=None)[0]
+    return grid[picked], float((resid ** 2).sum())
 
 
 @dataclass(frozen=True)
