@@ -95,6 +95,9 @@ def probe(path: str | os.PathLike) -> VideoInfo:
     try:
         vs = c.streams.video[0]
         cc = vs.codec_context
+        if cc is None or not cc.width or not cc.height:
+            raise InputError(f"{path}: its video stream cannot be decoded (damaged or "
+                             "truncated file?)")
         rate = vs.average_rate or vs.guessed_rate or vs.base_rate or Fraction(30)
         rotation = 0
         frames = vs.frames

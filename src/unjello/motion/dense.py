@@ -65,6 +65,14 @@ _BLAS = ThreadpoolController()
 # 0.063x, at 1.5-1.75x the flow's time.
 _FULL_RES_WIDTH = 480
 
+# Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight, in
+# their choice and their solve. Measured (benchmarks/synthetic.py, --vibration on): 1e-6
+# let sinusoids near the frame rate, which the frame differences barely see, fit noise
+# (diagonal pan 4.1x, moving object 1.3x the uncorrected error); 1e-3 is as safe as no
+# sinusoids on every case and gives the 2 s jello clip 0.090x (0.182x without); 3e-3
+# 0.125x, 1e-2 0.146x.
+_SINE_RIDGE = 1e-3
+
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
             "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM}
@@ -123,6 +131,10 @@ class DenseConfig:
     probe : int
         Frame pairs looked at before the first frame is emitted, to decide; shorter
         clips are never switched.
+    sinusoids : int
+        Sinusoids of free frequency (up to 1.6 cycles per frame interval) added to the
+        camera trajectory, outside its smoothness penalty (vibration): picked from what
+        the smooth trajectory leaves (:func:`sinusoid_pursuit`), then solved together.
     per_pixel : bool
         Model each pixel's residual motion (parallax, moving objects) on top of the
         camera trajectory. False: the camera trajectory and row velocity alone, one
@@ -143,13 +155,16 @@ class DenseConfig:
     detect_vibration: bool = True
     probe: int = 8
     per_pixel: bool = True
+    sinusoids: int = 0
 
 
 #: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
-#: of about one beat period (31 Hz at 30 fps beats once a second) and a trajectory that may
-#: bend at scanline resolution. Costs some accuracy on parallax (0.049x instead of 0.019x
-#: of the uncorrected error in ``benchmarks/synthetic.py``) and a 16-frame look-ahead.
-VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7}
+#: of about one beat period (31 Hz at 30 fps beats once a second), a trajectory that may
+#: bend at scanline resolution, and six sinusoids of free frequency (a vibration is a few
+#: of them: with them the 2 s jello clip of ``benchmarks/synthetic.py`` went from 0.182x
+#: to 0.090x of the uncorrected error, the 12-frame one from 0.699x to 0.633x). Costs some
+#: accuracy on parallax (0.049x instead of 0.019x) and a 16-frame look-ahead.
+VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6}
 
 # Vibration is detected (:func:`vibration_level`) above this wobble, as a fraction of the
 # frame height, making up at least this share of the non-steady row flow. Measured on 10
@@ -308,7 +323,7 @@ def _solve_bordered_banded(a: sparse.spmatrix, b: np.ndarray, c: np.ndarray,
 
 def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
                      weight: np.ndarray, base: np.ndarray, count: int,
-                     max_cycles: float = 1.6) -> tuple[np.ndarray, float]:
+                     max_cycles: float = 1.6, ridge: float = 0.0) -> tuple[np.ndarray, float]:
     """Sinusoids of a trajectory seen through its differences ``c(t_a) - c(t_b) = delta``.
 
     Orthogonal matching pursuit: ``count`` times, the frequency (0.01 to ``max_cycles``
@@ -330,6 +345,10 @@ def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
         Sinusoids to pick.
     max_cycles : float
         Highest frequency considered.
+    ridge : float
+        Penalty on the squared amplitudes, relative to the total weight, in the choice:
+        a sinusoid the differences barely see (near a multiple of the frame rate) must
+        not be picked to fit noise with a huge amplitude.
 
     Returns
     -------
@@ -354,7 +373,8 @@ def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
     pa, pb = (2 * np.pi) * t_a[:, None] * grid, (2 * np.pi) * t_b[:, None] * grid
     cos = (np.cos(pa) - np.cos(pb)) * sw
     sin = (np.sin(pa) - np.sin(pb)) * sw
-    cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
+    lam = ridge * float(weight.sum())
+    cc, ss, cs = (cos * cos).sum(0) + lam, (sin * sin).sum(0) + lam, (cos * sin).sum(0)
     det = cc * ss - cs ** 2 + 1e-12
     picked: list[int] = []
     for _ in range(count):
@@ -397,7 +417,8 @@ class CameraSolution:
 
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
-                            smoothness: float, row_knots: int = 16) -> CameraSolution:
+                            smoothness: float, row_knots: int = 16,
+                            freqs: np.ndarray | None = None) -> CameraSolution:
     """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
 
     ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
@@ -424,6 +445,10 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         Weight of the penalty on the acceleration of ``c``.
     row_knots : int
         Knots of ``u`` over the frame height (linear in between).
+    freqs : ndarray, optional
+        Frequencies (cycles per unit of time) of sinusoids added to ``c`` with free
+        amplitudes, outside the smoothness penalty (vibration; see
+        :func:`sinusoid_pursuit`).
 
     Returns
     -------
@@ -452,6 +477,12 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
         gap = t_a - t_b
         terms += [(n + ir, gap * wr0), (n + ir + 1, gap * wr1)]
+    freqs = np.zeros(0) if freqs is None else np.asarray(freqs, dtype=np.float64)
+    if freqs.size:  # each sinusoid's cosine and sine, seen through the differences
+        pa, pb = 2 * np.pi * (t_a - t0)[:, None] * freqs, 2 * np.pi * (t_b - t0)[:, None] * freqs
+        waves = np.concatenate([np.cos(pa) - np.cos(pb), np.sin(pa) - np.sin(pb)], axis=1)
+        terms += [(np.full(m, n + k + j), waves[:, j]) for j in range(waves.shape[1])]
+        k += waves.shape[1]
     sw = np.sqrt(weight)
     aw = sparse.csr_matrix((np.concatenate([v * sw for _, v in terms]),
                             (np.tile(r, len(terms)), np.concatenate([c for c, _ in terms]))),
@@ -463,10 +494,13 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     a_cc = ata[:n, :n] + smoothness * scale / step**3 * _second_difference_gram(n)
     b_cu = ata[:n, n:].toarray()
     c_uu = ata[n:, n:].toarray()
-    if k:
+    ku = k - 2 * freqs.size
+    if ku:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        c_uu += (1e-3 * scale * _second_difference_gram(k).toarray()
-                 + 1e-4 * scale * np.eye(k))
+        c_uu[:ku, :ku] += (1e-3 * scale * _second_difference_gram(ku).toarray()
+                           + 1e-4 * scale * np.eye(ku))
+    if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
+        c_uu[ku:, ku:] += _SINE_RIDGE * scale * np.eye(k - ku)
     jitter = 1e-9 * ((a_cc.diagonal().sum() + np.trace(c_uu)) / (n + k) + 1e-12)
     a_cc = a_cc + jitter * sparse.eye(n)
     c_uu += jitter * np.eye(k)
@@ -474,7 +508,10 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         sol = _solve_bordered_banded(a_cc, b_cu, c_uu, np.asarray(atb))
     # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
     cost = float(((delta * sw[:, None]) ** 2).sum() - (sol * np.asarray(atb)).sum())
-    c, u = sol[:n], sol[n:]
+    c, u = sol[:n], sol[n:n + ku]
+    if freqs.size:
+        ph = 2 * np.pi * (step * np.arange(n))[:, None] * freqs
+        c = c + np.concatenate([np.cos(ph), np.sin(ph)], axis=1) @ sol[n + ku:]
     return CameraSolution(t0, step, c - c.mean(axis=0), u, cost)
 
 
@@ -648,6 +685,7 @@ class DenseMethod:
         self._decided = not config.detect_vibration
         self._halves: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
         self._note = ""  # added to every frame's note once vibration is detected
+        self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
         self._count = 0
         self._next_out = 0
         self._full: tuple[int, int] = (0, 0)
@@ -758,7 +796,27 @@ class DenseMethod:
         smoothness = self.config.smoothness
         if len(eqs) == 1:
             smoothness = max(smoothness, self.config.pair_smoothness)
-        return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
+        if not self.config.sinusoids or len(eqs) < 3:
+            return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
+        # A vibration's frequencies hold for a while: picked again every 8 frames, from
+        # what the smooth trajectory leaves of every 4th row equation (the choice costs
+        # far more than the solve).
+        if self._freqs is None or pairs[1] - self._freqs[0] >= 8:
+            sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
+            grid_t = sol.t0 + sol.step * np.arange(sol.c.shape[0])
+            knots = np.linspace(0.0, 1.0, sol.u.shape[0])
+            pred = np.stack([np.interp(t_a, grid_t, sol.c[:, i])
+                             - np.interp(t_b, grid_t, sol.c[:, i])
+                             + np.interp(rows, knots, sol.u[:, i]) * (t_a - t_b)
+                             for i in range(2)], axis=1)
+            sub = slice(None, None, 4)
+            picked, _ = sinusoid_pursuit(t_a[sub] - sol.t0, t_b[sub] - sol.t0,
+                                         (delta - pred)[sub], wgt[sub],
+                                         np.zeros((t_a[sub].size, 0)), self.config.sinusoids,
+                                         ridge=_SINE_RIDGE)
+            self._freqs = (pairs[1], picked)
+        return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness,
+                                       freqs=self._freqs[1])
 
     def _emit(self, fr: _Frame, pairs: tuple[int, int]) -> FrameMotion:
         """Frame ``fr``'s motion from the camera solve over ``pairs`` and its own flows."""
