@@ -69,8 +69,8 @@ _FULL_RES_WIDTH = 480
 # their choice and their solve. Measured (benchmarks/synthetic.py, --vibration on): 1e-6
 # let sinusoids near the frame rate, which the frame differences barely see, fit noise
 # (diagonal pan 4.1x, moving object 1.3x the uncorrected error); 1e-3 is as safe as no
-# sinusoids on every case and gives the 2 s jello clip 0.090x (0.182x without); 3e-3
-# 0.125x, 1e-2 0.146x.
+# sinusoids on every case and gives the 2 s jello clip 0.090x (0.182x without; 0.099x
+# as shipped, picking every 8 frames from every 4th row); 3e-3 0.125x, 1e-2 0.146x.
 _SINE_RIDGE = 1e-3
 
 _PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
@@ -162,7 +162,7 @@ class DenseConfig:
 #: of about one beat period (31 Hz at 30 fps beats once a second), a trajectory that may
 #: bend at scanline resolution, and six sinusoids of free frequency (a vibration is a few
 #: of them: with them the 2 s jello clip of ``benchmarks/synthetic.py`` went from 0.182x
-#: to 0.090x of the uncorrected error, the 12-frame one from 0.699x to 0.633x). Costs some
+#: to 0.099x of the uncorrected error, the 12-frame one from 0.699x to 0.633x). Costs some
 #: accuracy on parallax (0.049x instead of 0.019x) and a 16-frame look-ahead.
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6}
 
