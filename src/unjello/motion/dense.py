@@ -170,8 +170,12 @@ VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "s
 # frame height, making up at least this share of the non-steady row flow. Measured on 10
 # simulated frames (224x160 and 320x240, two photos): jello 0.87-1.3 % / 0.84; hand shake
 # 0.14-0.21 % / 0.11; pan then stop 0.13-0.19 % / 0.09; parallax and a moving object
-# 0.02 % and less.
-_WOBBLE, _WOBBLE_SHARE = 0.004, 0.5
+# 0.02 % and less. On 12 frames at readouts 0.3-1.0: jello 0.54-0.85 % / 0.57-0.85, hand
+# shake up to 0.27 % / 0.24, a stop up to 0.19 % / 0.13; the real hand-held phone clip
+# 0.17 % / 0.23. The share tells them apart; the wobble threshold only keeps still or
+# steady clips (a constant pan: 0.01 %, share up to 1.0) out. 720p Big Buck Bunny with a
+# 2 px jello read in 0.6 of the frame interval: 0.29 % / 0.78 (missed at 0.4 %).
+_WOBBLE, _WOBBLE_SHARE = 0.002, 0.5
 
 
 def vibration_level(left: list[tuple[np.ndarray, np.ndarray]],
