@@ -287,13 +287,12 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     ReadoutEstimate
     """
     from .motion.dense import (
-        _WOBBLE,
-        _WOBBLE_SHARE,
         DenseConfig,
+        detect_vibration,
         flow_pair,
+        half_row_flows,
         row_flows,
         solve_camera_trajectory,
-        vibration_level,
     )
 
     grey, times = [], []
@@ -318,33 +317,31 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     for k in range(1, len(grey)):
         bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], cfg, cfg.work_width, two_way=True)
         pairs.append(row_flows(bwd, ok))
-        half = bwd.shape[1] // 2
-        halves.append([row_flows(bwd[:, c], ok[:, c])[:2]
-                       for c in (slice(0, half), slice(half, None))])
+        halves.append(half_row_flows(bwd, ok))
     # Vibration is told as the dense method's --vibration auto tells it (as many pairs).
-    wobble, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], h)
-    vibrating = len(pairs) >= cfg.probe and wobble >= _WOBBLE and share >= _WOBBLE_SHARE
+    vibrating = detect_vibration(halves, h, cfg.probe) is not None
     window = 12 if vibrating else 4
-    # The vibration model's cost grows with the equations: about 120 rows per pair are
-    # plenty (a 1.6-cycle vibration spans at most 1.6 periods of the frame's rows).
-    row_step = max(1, h // 120) if vibrating else 1
     # Uniform motion carries no information on the readout: check there is variation.
     flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(
         p[1].size for p in pairs) else np.zeros((0, 2))
     variation = float(np.linalg.norm(flows.std(axis=0))) if len(flows) > 1 else 0.0
+    if vibrating:
+        # The vibration model's cost grows with the equations: about 120 rows per pair
+        # are plenty (a 1.6-cycle vibration spans at most 1.6 periods of the rows).
+        step = max(1, h // 120)
+        pairs = [(y[::step], med[::step], wgt[::step]) for y, med, wgt in pairs]
+    # The vibration model's windows overlap by half and all hold twelve pairs.
+    last = max(1, len(pairs) - window // 2) if vibrating else len(pairs)
     candidates = np.round(np.arange(0.1, 1.0001, 0.05), 4)
     costs = np.zeros(candidates.size)
     for j, rho in enumerate(candidates):
         total = 0.0
-        # (the vibration model's windows overlap by half and all hold twelve pairs)
-        last = max(1, len(pairs) - window // 2) if vibrating else len(pairs)
         for k0 in range(0, last, window // 2):
             eq = []
             for k in range(k0, min(k0 + window, len(pairs))):
                 y, med, wgt = pairs[k]
                 if y.size == 0:
                     continue
-                y, med, wgt = y[::row_step], med[::row_step], wgt[::row_step]
                 t_a = times[k + 1] + rho * y / h
                 t_b = times[k] + rho * (y + med[:, 1]) / h
                 eq.append((t_a, t_b, -med, wgt))

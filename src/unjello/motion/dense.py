@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,8 +52,8 @@ from ..trajectory import FrameMotion
 
 __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical_flow",
            "solve_camera_trajectory",
-           "pair_row_flows", "row_flows", "flow_pair", "invert_flow", "vibration_level",
-           "sinusoid_pursuit"]
+           "row_flows", "half_row_flows", "flow_pair", "invert_flow", "vibration_level",
+           "detect_vibration", "sinusoid_pursuit"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
@@ -221,6 +221,25 @@ def vibration_level(left: list[tuple[np.ndarray, np.ndarray]],
     shared = float(np.sqrt(max(0.0, (wobble[0] * wobble[1]).sum(axis=1).mean())))
     total = float(np.sqrt(max(0.0, (moving[0] * moving[1]).sum(axis=1).mean())))
     return shared / height, min(1.0, shared / total) if total > 0 else 0.0
+
+
+def detect_vibration(halves: Sequence[tuple[tuple[np.ndarray, np.ndarray], ...]], height: int,
+                     probe: int) -> float | None:
+    """Return the wobble (fraction of the height) if the frame pairs vibrate, else None.
+
+    Parameters
+    ----------
+    halves : list of (left, right)
+        Per frame pair, in order: :func:`half_row_flows` of its flow.
+    height : int
+        Rows per frame.
+    probe : int
+        Fewer pairs than this are never said to vibrate.
+    """
+    if len(halves) < probe:
+        return None
+    wobble, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], height)
+    return wobble if wobble >= _WOBBLE and share >= _WOBBLE_SHARE else None
 
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
@@ -418,6 +437,15 @@ class CameraSolution:
     u: np.ndarray
     cost: float
 
+    def differences(self, t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Return the left side ``c(t_a) - c(t_b) + u(y) (t_a - t_b)`` of the equations."""
+        grid_t = self.t0 + self.step * np.arange(self.c.shape[0])
+        knots = np.linspace(0.0, 1.0, self.u.shape[0])
+        return np.stack([np.interp(t_a, grid_t, self.c[:, i]) - np.interp(t_b, grid_t,
+                                                                        self.c[:, i])
+                         + np.interp(rows, knots, self.u[:, i]) * (t_a - t_b)
+                         for i in range(2)], axis=1)
+
 
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
@@ -578,6 +606,15 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return np.flatnonzero(use).astype(np.float64), _shorth(vals), count[use] / w
 
 
+def half_row_flows(flow: np.ndarray, ok: np.ndarray
+                   ) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Rows and row flows (:func:`row_flows`) of the left and of the right half."""
+    half = flow.shape[1] // 2
+    left, right = (row_flows(flow[:, c], ok[:, c])[:2]
+                   for c in (slice(0, half), slice(half, None)))
+    return left, right
+
+
 def invert_flow(flow: np.ndarray, iterations: int = 3) -> np.ndarray:
     """Invert a dense flow by the fixed point ``G(q) = -F(q + G(q))``.
 
@@ -633,13 +670,6 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, config: DenseConfig, max_width:
            if two_way else invert_flow(bwd))
     return (bwd, _consistent(bwd, fwd, config.consistency),
             fwd, _consistent(fwd, bwd, config.consistency))
-
-
-def pair_row_flows(prev: np.ndarray, cur: np.ndarray, config: DenseConfig = DenseConfig()
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row flows from ``cur`` to ``prev`` (see :func:`row_flows`), with the two-way check."""
-    bwd, bwd_ok, _, _ = flow_pair(prev, cur, config, config.work_width, two_way=True)
-    return row_flows(bwd, bwd_ok)
 
 
 def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
@@ -717,10 +747,7 @@ class DenseMethod:
                 cur.bwd_ok = _landing(cur.bwd)[2]  # lands inside the frame
             self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self._decided:  # rows of each half, for the vibration test
-                half = cur.image.shape[1] // 2
-                self._halves.append(tuple(  # type: ignore[arg-type]
-                    row_flows(cur.bwd[:, cols], cur.bwd_ok[:, cols])[:2]
-                    for cols in (slice(0, half), slice(half, None))))
+                self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
         self._frames.append(cur)
@@ -760,12 +787,10 @@ class DenseMethod:
         self._decided = True
         if not self._frames:
             return
-        h = self._frames[0].image.shape[0]
         halves, self._halves = self._halves, []
-        if len(halves) < self.config.probe:  # a clip this short gains little from it
-            return
-        wobble, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], h)
-        if wobble >= _WOBBLE and share >= _WOBBLE_SHARE:
+        # (a clip shorter than the probe gains little from it)
+        wobble = detect_vibration(halves, self._frames[0].image.shape[0], self.config.probe)
+        if wobble is not None:
             self.config = dataclasses.replace(self.config, **VIBRATION)
             self._note = (f"vibration detected (wobble {100 * wobble:.2f}% of the height): "
                           "one-second window")
@@ -806,16 +831,10 @@ class DenseMethod:
         # what the smooth trajectory leaves of every 4th row equation (the choice costs
         # far more than the solve).
         if self._freqs is None or pairs[1] - self._freqs[0] >= 8:
-            sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
-            grid_t = sol.t0 + sol.step * np.arange(sol.c.shape[0])
-            knots = np.linspace(0.0, 1.0, sol.u.shape[0])
-            pred = np.stack([np.interp(t_a, grid_t, sol.c[:, i])
-                             - np.interp(t_b, grid_t, sol.c[:, i])
-                             + np.interp(rows, knots, sol.u[:, i]) * (t_a - t_b)
-                             for i in range(2)], axis=1)
             sub = slice(None, None, 4)
-            picked, _ = sinusoid_pursuit(t_a[sub] - sol.t0, t_b[sub] - sol.t0,
-                                         (delta - pred)[sub], wgt[sub],
+            sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
+            left = delta[sub] - sol.differences(t_a[sub], t_b[sub], rows[sub])
+            picked, _ = sinusoid_pursuit(t_a[sub] - sol.t0, t_b[sub] - sol.t0, left, wgt[sub],
                                          np.zeros((t_a[sub].size, 0)), self.config.sinusoids,
                                          ridge=_SINE_RIDGE)
             self._freqs = (pairs[1], picked)
