@@ -3,7 +3,12 @@
 import cv2
 import numpy as np
 
-from unjello.motion.dense import invert_flow, solve_camera_trajectory, vibration_level
+from unjello.motion.dense import (
+    _advected_velocity,
+    invert_flow,
+    solve_camera_trajectory,
+    vibration_level,
+)
 
 
 def test_invert_flow_composes_to_identity():
@@ -15,6 +20,25 @@ def test_invert_flow_composes_to_identity():
     back = cv2.remap(inv, xx + flow[..., 0], yy + flow[..., 1], cv2.INTER_LINEAR)
     inner = (slice(8, -8), slice(8, -8))
     assert np.abs(flow + back)[inner].max() < 0.05
+
+
+def test_advected_velocity_follows_a_zoom_ahead():
+    # A steady zoom (a stationary field v(x) = k (x - centre)): a point at s was at
+    # centre + (s - centre) e^{-k} one frame earlier and will be at centre + (s - centre)
+    # e^{k/2} half a frame later. A constant velocity per pixel misses the speed-up as
+    # the point moves out; carried through the fitted field it must be 5x closer.
+    h, w, k = 90, 120, 0.08
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    rel = np.stack([xx - w / 2, yy - h / 2], axis=-1)
+    flow = rel * np.float32(np.exp(-k) - 1)  # to the previous frame
+    vel = -flow  # mean velocity over that frame
+    truth = rel * np.float32(np.exp(k / 2) - 1)
+    linear = 0.5 * vel
+    ok = np.ones((h, w), bool)
+    advected = 0.5 * _advected_velocity(vel, ok, flow, linear)
+    inner = (slice(10, -10), slice(10, -10))
+    err_lin = np.abs(linear - truth)[inner].mean()
+    assert np.abs(advected - truth)[inner].mean() < err_lin / 5
 
 
 def test_camera_trajectory_follows_a_vibration_within_frames():
