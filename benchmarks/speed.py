@@ -13,7 +13,7 @@
 
 Usage::
 
-    python benchmarks/speed.py [--frames 300] [--skip-memory]
+    python benchmarks/speed.py [--frames 300] [--rounds 3] [--skip-memory]
 """
 
 from __future__ import annotations
@@ -122,6 +122,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=300)
     ap.add_argument("--skip-memory", action="store_true")
+    ap.add_argument("--rounds", type=int, default=3,
+                    help="rounds of T0, T1 and T1 fast (the median round is reported)")
     ap.add_argument("--paper-frames", type=int, default=10,
                     help="frames timed with --method paper (it is slow at 1080p)")
     args = ap.parse_args()
@@ -133,19 +135,31 @@ def main() -> None:
         build_clip(clip, args.frames, (1920, 1080))
         print(f"built {args.frames} frames of 1920x1080 at 30 fps in "
               f"{time.perf_counter() - t:.0f} s", flush=True)
-        t = time.perf_counter()
-        transcode(clip, d / "t0.mp4")
-        t0 = time.perf_counter() - t
-        t1, rss1 = timed([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"), "-q"])
+        # The ratios are measured round by round (T0, then T1 and T1 fast right after it)
+        # and the median round is reported: a shared machine's speed drifts by 10-20 %
+        # over minutes, which one round alone would fold into the ratio.
+        rounds = []
+        for k in range(args.rounds):
+            t = time.perf_counter()
+            transcode(clip, d / "t0.mp4")
+            t0 = time.perf_counter() - t
+            t1, rss1 = timed([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"), "-q",
+                              "-y"])
+            tf, _ = timed([*unjello, "correct", str(clip), "-o", str(d / "tf.mp4"), "-q", "-y",
+                           "--preset", "fast"])
+            rounds.append((t0, t1, tf, rss1))
+            print(f"round {k + 1}: T0 {t0:.1f} s, T1 {t1:.1f} s ({t1 / t0:.2f}), "
+                  f"T1 fast {tf:.1f} s ({tf / t0:.2f})", flush=True)
+        t0, t1, tf, rss1 = sorted(rounds, key=lambda r: r[1] / r[0])[len(rounds) // 2]
+        print(f"median round of {len(rounds)} (by T1/T0):")
         print(f"T0 plain transcode (libx264 CRF 18 medium, audio copied): {t0:.1f} s "
               f"({args.frames / t0:.1f} fps)")
         print(f"T1 unjello correct (dense):                          {t1:.1f} s "
-              f"({args.frames / t1:.1f} fps), T1/T0 = {t1 / t0:.2f}, peak RSS {rss1:.0f} MB",
+              f"({args.frames / t1:.1f} fps), T1/T0 = {t1 / t0:.2f}, peak RSS {rss1:.0f} MB")
+        fast = sorted(r[2] / r[0] for r in rounds)
+        print(f"T1 unjello correct --preset fast (camera only):       T1/T0 = "
+              f"{fast[len(fast) // 2]:.2f} (median; rounds {', '.join(f'{x:.2f}' for x in fast)})",
               flush=True)
-        tf, _ = timed([*unjello, "correct", str(clip), "-o", str(d / "tf.mp4"), "-q",
-                       "--preset", "fast"])
-        print(f"T1 unjello correct --preset fast (camera only):       {tf:.1f} s "
-              f"({args.frames / tf:.1f} fps), T1/T0 = {tf / t0:.2f}", flush=True)
         npf = args.paper_frames
         short = d / "clip_paper.mp4"
         cut(clip, short, npf)

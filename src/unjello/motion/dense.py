@@ -44,7 +44,7 @@ from typing import Any
 
 import cv2
 import numpy as np
-from scipy import linalg, sparse
+from scipy import linalg
 from threadpoolctl import ThreadpoolController
 
 from ..timing import SensorTiming
@@ -318,30 +318,46 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def _second_difference_gram(n: int) -> sparse.csr_matrix:
-    """``D2^T D2`` for the second-difference operator on ``n`` samples (pentadiagonal)."""
-    d2 = sparse.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(n - 2, n))
-    return (d2.T @ d2).tocsr()
+def _second_difference_band(n: int) -> np.ndarray:
+    """``D2^T D2`` for the second-difference operator on ``n`` samples, as a 3-row upper band.
+
+    Row ``2 - d`` holds the ``d``-th superdiagonal (LAPACK's upper band storage, right
+    aligned): the diagonal is ``1, 5, 6, ..., 6, 5, 1``, the first superdiagonal
+    ``-2, -4, ..., -4, -2``, the second all ones.
+    """
+    band = np.zeros((3, n))
+    if n >= 3:
+        ones = np.ones(n - 2)
+        band[2] = np.convolve(ones, [1.0, 4.0, 1.0])
+        band[1, 1:] = np.convolve(ones, [-2.0, -2.0])
+        band[0, 2:] = ones
+    return band
 
 
-def _solve_bordered_banded(a: sparse.spmatrix, b: np.ndarray, c: np.ndarray,
+def _band_to_dense(band: np.ndarray) -> np.ndarray:
+    """Return the symmetric matrix whose upper band (LAPACK storage) is ``band``."""
+    bw, n = band.shape[0] - 1, band.shape[1]
+    full = np.zeros((n, n))
+    for d in range(bw + 1):
+        full[np.arange(n - d), np.arange(d, n)] = band[bw - d, d:]
+    return full + np.triu(full, 1).T
+
+
+def _solve_bordered_banded(band: np.ndarray, b: np.ndarray, c: np.ndarray,
                            rhs: np.ndarray) -> np.ndarray:
     """Solve ``[[a, b], [b^T, c]] x = rhs`` with ``a`` banded and symmetric positive definite.
 
-    The trajectory block ``a`` couples samples about one frame interval apart, so it is
-    banded; the few row-velocity unknowns border it. Banded Cholesky of ``a`` and the
-    Schur complement of the border keep the cost linear in the window's length, so long
-    windows (needed to resolve vibration near the frame rate) stay cheap.
+    ``a`` is given by its upper band (LAPACK storage). The trajectory block ``a`` couples
+    samples about one frame interval apart, so it is banded; the few row-velocity
+    unknowns border it. Banded Cholesky of ``a`` and the Schur complement of the border
+    keep the cost linear in the window's length, so long windows (needed to resolve
+    vibration near the frame rate) stay cheap.
     """
-    n, k = a.shape[0], c.shape[0]
-    upper = sparse.triu(a).tocoo()
-    upper.sum_duplicates()
-    bw = int((upper.col - upper.row).max()) if upper.nnz else 0
+    bw, n, k = band.shape[0] - 1, band.shape[1], c.shape[0]
     if bw > n // 3:  # hardly banded: a dense solve is as good
-        full = np.block([[a.toarray(), b], [b.T, c]]) if k else a.toarray()
+        a = _band_to_dense(band)
+        full = np.block([[a, b], [b.T, c]]) if k else a
         return np.linalg.solve(full, rhs)
-    band = np.zeros((bw + 1, n))
-    band[bw + upper.row - upper.col, upper.col] = upper.data
     factor = linalg.cholesky_banded(band)
     x = linalg.cho_solve_banded((factor, False), np.concatenate([b, rhs[:n]], axis=1))
     if not k:
@@ -506,47 +522,63 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     t0 = float(min(t_a.min(), t_b.min())) - step
     t1 = float(max(t_a.max(), t_b.max())) + step
     n = int(np.ceil((t1 - t0) / step)) + 2
-    k = row_knots if rows is not None else 0
+    ku = row_knots if rows is not None else 0
+    freqs = np.zeros(0) if freqs is None else np.asarray(freqs, dtype=np.float64)
+    k = ku + 2 * freqs.size
+    m = t_a.size
+    sw = np.sqrt(weight)
+    rhs = delta * sw[:, None]
     ia, wa0, wa1 = _interp_matrix(t_a, t0, step, n)
     ib, wb0, wb1 = _interp_matrix(t_b, t0, step, n)
-    m = t_a.size
-    r = np.arange(m)
-    terms = [(ia, wa0), (ia + 1, wa1), (ib, -wb0), (ib + 1, -wb1)]
-    if rows is not None:
-        ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (k - 1), k)
+    # Each equation touches four samples of c (linear interpolation at both ends) ...
+    cols = np.stack([ia, ia + 1, ib, ib + 1], axis=1)
+    vals = np.stack([wa0, wa1, -wb0, -wb1], axis=1) * sw[:, None]
+    # ... and the border unknowns: u's two knots around the row, the sinusoids.
+    border = np.zeros((m, k))
+    if ku:
+        ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (ku - 1), ku)
         gap = t_a - t_b
-        terms += [(n + ir, gap * wr0), (n + ir + 1, gap * wr1)]
-    freqs = np.zeros(0) if freqs is None else np.asarray(freqs, dtype=np.float64)
+        r = np.arange(m)
+        border[r, ir] = gap * wr0
+        border[r, ir + 1] = gap * wr1
     if freqs.size:  # each sinusoid's cosine and sine, seen through the differences
         pa, pb = 2 * np.pi * (t_a - t0)[:, None] * freqs, 2 * np.pi * (t_b - t0)[:, None] * freqs
-        waves = np.concatenate([np.cos(pa) - np.cos(pb), np.sin(pa) - np.sin(pb)], axis=1)
-        terms += [(np.full(m, n + k + j), waves[:, j]) for j in range(waves.shape[1])]
-        k += waves.shape[1]
-    sw = np.sqrt(weight)
-    aw = sparse.csr_matrix((np.concatenate([v * sw for _, v in terms]),
-                            (np.tile(r, len(terms)), np.concatenate([c for c, _ in terms]))),
-                           shape=(m, n + k))
-    ata = (aw.T @ aw).tocsr()
-    atb = aw.T @ (delta * sw[:, None])
+        border[:, ku:] = np.concatenate([np.cos(pa) - np.cos(pb), np.sin(pa) - np.sin(pb)],
+                                        axis=1)
+    border *= sw[:, None]
+    # Normal equations: the c block straight into LAPACK's upper band storage.
+    bw = max(2, int((cols.max(axis=1) - cols.min(axis=1)).max()))
+    pi, qi = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    ci, cj = cols[:, pi.ravel()], cols[:, qi.ravel()]
+    upper = ci <= cj
+    products = vals[:, pi.ravel()] * vals[:, qi.ravel()]
+    band = np.bincount(((bw + ci - cj) * n + cj)[upper], products[upper],
+                       minlength=(bw + 1) * n).reshape(bw + 1, n)
+    def c_rows(x: np.ndarray) -> np.ndarray:
+        """``A_c^T x`` for a matrix ``x`` of shape (m, j): scatter-add into c's rows."""
+        j = x.shape[1]
+        idx = cols[:, :, None] * j + np.arange(j)
+        return np.bincount(idx.ravel(), (vals[:, :, None] * x[:, None, :]).ravel(),
+                           minlength=n * j).reshape(n, j)
+
+    atb = np.concatenate([c_rows(rhs), border.T @ rhs])
+    b_cu = c_rows(border)
+    c_uu = border.T @ border
     scale = weight.sum()
     # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
-    a_cc = ata[:n, :n] + smoothness * scale / step**3 * _second_difference_gram(n)
-    b_cu = ata[:n, n:].toarray()
-    c_uu = ata[n:, n:].toarray()
-    ku = k - 2 * freqs.size
+    band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n)
     if ku:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        c_uu[:ku, :ku] += (1e-3 * scale * _second_difference_gram(ku).toarray()
+        c_uu[:ku, :ku] += (1e-3 * scale * _band_to_dense(_second_difference_band(ku))
                            + 1e-4 * scale * np.eye(ku))
     if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
         c_uu[ku:, ku:] += _SINE_RIDGE * scale * np.eye(k - ku)
-    jitter = 1e-9 * ((a_cc.diagonal().sum() + np.trace(c_uu)) / (n + k) + 1e-12)
-    a_cc = a_cc + jitter * sparse.eye(n)
+    jitter = 1e-9 * ((band[bw].sum() + np.trace(c_uu)) / (n + k) + 1e-12)
+    band[bw] += jitter
     c_uu += jitter * np.eye(k)
     with _BLAS.limit(limits=1, user_api="blas"):
-        sol = _solve_bordered_banded(a_cc, b_cu, c_uu, np.asarray(atb))
-    # Minimum of |W^(1/2)(A x - b)|^2 + x^T P x  =  b^T W b - x^T A^T W b.
-    cost = float(((delta * sw[:, None]) ** 2).sum() - (sol * np.asarray(atb)).sum())
+        sol = _solve_bordered_banded(band, b_cu, c_uu, atb)
+    cost = float((rhs ** 2).sum() - (sol * atb).sum())
     c, u = sol[:n], sol[n:n + ku]
     if freqs.size:
         ph = 2 * np.pi * (step * np.arange(n))[:, None] * freqs
