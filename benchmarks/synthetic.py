@@ -8,7 +8,7 @@ method at 640x480 and 1920x1080.
 
 Usage::
 
-    python benchmarks/synthetic.py [--frames 12] [--size 320x240] [--no-speed]
+    python benchmarks/synthetic.py [--frames 12] [--size 320x240] [--no-speed] [--edge-refine]
 """
 
 from __future__ import annotations
@@ -106,7 +106,13 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--size", default="320x240")
     ap.add_argument("--no-speed", action="store_true")
+    ap.add_argument("--edge-refine", action="store_true",
+                    help="dense columns with --edge-refine (motion boundaries refined)")
     args = ap.parse_args()
+    if args.edge_refine:
+        METHODS["dense"] = CorrectionConfig(dense=DenseConfig(edge_refine=True))
+        METHODS["vibration"] = CorrectionConfig(dense=DenseConfig(edge_refine=True,
+                                                                  **VIBRATION))
     size = tuple(int(v) for v in args.size.split("x"))
     print(f"{args.frames} frames of {size[0]}x{size[1]}, readout 1.0; error = mean "
           "displacement error / uncorrected (lower is better)")

@@ -139,6 +139,22 @@ def test_moving_object_leaves_background_intact(scene):
     assert errs["object"] <= 0.08 * unc["object"], (errs, unc)
 
 
+def test_edge_refine_sharpens_motion_at_the_object(scene):
+    # --edge-refine: the background next to a moving object no longer moves with it.
+    # Measured: background error 0.029 px without, 0.019 px with (uncorrected 1.4 px).
+    timing = SensorTiming(1.0)
+    sim = list(simulate(scene, Motion("pan", speed=5.0), timing, 10, size=SIZE,
+                        layers="object"))
+    masks = [s.layer == 0 for s in sim]
+    errs = {}
+    for refine in (False, True):
+        config = CorrectionConfig(dense=DenseConfig(edge_refine=refine))
+        _, traj = correct_frames([s.rolling for s in sim], timing, config=config)
+        errs[refine] = np.mean([displacement_error(f, s.motion, m)
+                                for f, s, m in zip(traj.frames, sim, masks, strict=True)])
+    assert errs[True] <= 0.8 * errs[False], errs
+
+
 def test_first_frame_moving_dense(scene):
     # No still-first-frame assumption: a clip that starts mid-pan is corrected from frame 0.
     _, _, _, err, unc = _run(scene, Motion("pan", speed=6.0), SensorTiming(1.0), n=4)

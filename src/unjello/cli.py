@@ -36,8 +36,8 @@ PRESETS: dict[str, dict[str, Any]] = {
     "drone": {"vibration": "on"},
 }
 _PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
-                "flow_preset", "work_width", "camera_only", "vibration", "codec", "crf",
-                "x264_preset")
+                "flow_preset", "work_width", "camera_only", "edge_refine", "vibration", "codec",
+                "crf", "x264_preset")
 
 
 def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
@@ -143,6 +143,10 @@ def _settings_options(f: Callable) -> Callable:
         click.option("--camera-only", is_flag=True,
                      help="Dense method: camera trajectory only, one displacement per "
                           "scanline (fast; no per-pixel parallax or moving objects)."),
+        click.option("--edge-refine", is_flag=True,
+                     help="Dense method: near motion boundaries (parallax, moving objects) "
+                          "give each pixel the flow of the side it matches; a third less "
+                          "motion error there (--stmap, --motion-out), up to a third slower."),
         click.option("--vibration", type=click.Choice(["auto", "on", "off"]), default="auto",
                      show_default=True,
                      help="Dense method: follow vibration near the frame rate (drone jello) "
@@ -185,6 +189,7 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
                               dense=DenseConfig(flow_preset=v["flow_preset"],
                                                 work_width=v["work_width"],
                                                 per_pixel=not v["camera_only"],
+                                                edge_refine=v["edge_refine"],
                                                 detect_vibration=vibration == "auto",
                                                 **(VIBRATION if vibration == "on" else {})))
     return (v["readout"], v["direction"], v["reference"], config,
