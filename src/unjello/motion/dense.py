@@ -543,7 +543,7 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     vals = np.stack([wa0, wa1, -wb0, -wb1], axis=1) * sw[:, None]
     # ... and the border unknowns: u's two knots around the row, the sinusoids.
     border = np.zeros((m, k))
-    if ku:
+    if rows is not None:
         ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (ku - 1), ku)
         gap = t_a - t_b
         r = np.arange(m)
@@ -734,7 +734,7 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     # Work on the rows and columns around the boundaries only.
     pad = max(radii) + window
     ys, xs = np.nonzero(edge)
-    h, w = edge.shape
+    h, w = flow.shape[:2]
     y0, y1 = max(0, ys.min() - pad), min(h, ys.max() + pad + 1)
     x0, x1 = max(0, xs.min() - pad), min(w, xs.max() + pad + 1)
     crop = (slice(y0, y1), slice(x0, x1))
