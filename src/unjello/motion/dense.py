@@ -710,8 +710,9 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     uncorrected error, a moving object's background 0.016x -> 0.011x; research pairs
     Fastec 28.78 -> 28.73 dB, Carla 31.37 -> 31.45 dB. A 3x3 patch was better on the
     suite (0.010x, 0.009x) and worse on the pairs (28.70, 31.39); radii 3, 6 and 10 px
-    scored as 3 and 8 at 1.7x the cost (up to 22 ms a frame on a 480x270 copy where
-    boundaries are everywhere; nothing where there are none).
+    scored as 3 and 8 at 1.7x the cost. Cost: nothing where there are no boundaries,
+    22 ms on a 480x270 copy with boundaries everywhere (synthetic); the Carla town
+    sequence (640x448, parallax throughout) went from 0.15 to 0.20 s a frame.
 
     Parameters
     ----------
@@ -848,7 +849,7 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     carry objects' edges through the frame.
 
     Measured on the research pairs (``benchmarks/pairs.py``, two frames, extrapolating
-    half a frame): Fastec 28.32 -> 28.79 dB, Carla 31.19 -> 31.37 dB. An affine field gave
+    half a frame): Fastec 28.32 -> 28.78 dB, Carla 31.19 -> 31.37 dB. An affine field gave
     28.72 / 31.26; a quadratic 28.70 / 31.37; the full per-pixel field (a stationary
     velocity field) 28.06 / 30.99.
     """
