@@ -754,9 +754,13 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
                           for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1),
                                          (1, 1), (1, -1), (-1, 1), (-1, -1))]
     padded = cv2.copyMakeBorder(fl, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
-    costs = np.stack([cost(padded[pad + oy:pad + oy + ch, pad + ox:pad + ox + cw])
-                      for ox, oy in offsets])
-    pick = np.where(near, np.argmin(costs, axis=0), 0)
+    best_cost = cost(fl)
+    pick = np.zeros((ch, cw), np.int64)
+    for i, (ox, oy) in enumerate(offsets[1:], start=1):  # one candidate held at a time
+        c = cost(padded[pad + oy:pad + oy + ch, pad + ox:pad + ox + cw])
+        better = near & (c < best_cost)
+        np.copyto(best_cost, c, where=better)
+        pick[better] = i
     off = np.array(offsets)[pick]  # (ch, cw, 2)
     src_y = np.clip(np.arange(ch)[:, None] + off[..., 1], 0, ch - 1)
     src_x = np.clip(np.arange(cw)[None, :] + off[..., 0], 0, cw - 1)
