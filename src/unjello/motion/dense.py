@@ -821,20 +821,26 @@ def _smooth_field(field: np.ndarray) -> np.ndarray:
     return field
 
 
-def _projective_basis(x: np.ndarray, y: np.ndarray, size: tuple[int, int]
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Columns of the eight-parameter projective flow (planar scene or camera rotation).
+def _projective_flow(coef: np.ndarray, x: np.ndarray, y: np.ndarray, size: tuple[int, int]
+                     ) -> np.ndarray:
+    """Evaluate the eight-parameter projective flow (planar scene, camera rotation) at x, y.
 
     ``u = a1 + a2 x + a3 y + a7 x^2 + a8 x y``, ``v = a4 + a5 x + a6 y + a7 x y + a8 y^2``
-    with ``x, y`` centred on the image and scaled by its larger side.
+    with ``x, y`` centred on the image of ``size`` (h, w) and scaled by its larger side.
+    It is linear in ``coef``: evaluated with unit vectors it gives the model's columns.
+
+    Returns
+    -------
+    ndarray of shape ``x.shape + (2,)``
     """
     h, w = size
-    scale = float(max(h, w))
-    x = (x.ravel() - 0.5 * w) / scale
-    y = (y.ravel() - 0.5 * h) / scale
-    one, zero = np.ones_like(x), np.zeros_like(x)
-    return (np.stack([one, x, y, zero, zero, zero, x * x, x * y], axis=1),
-            np.stack([zero, zero, zero, one, x, y, x * y, y * y], axis=1))
+    scale = np.float32(1.0 / max(h, w))
+    x = (x - np.float32(0.5 * w)) * scale
+    y = (y - np.float32(0.5 * h)) * scale
+    a1, a2, a3, a4, a5, a6, a7, a8 = np.asarray(coef, dtype=np.float32)
+    quad = a7 * x + a8 * y
+    return np.stack([a1 + a2 * x + a3 * y + quad * x, a4 + a5 * x + a6 * y + quad * y],
+                    axis=-1)
 
 
 def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
@@ -846,7 +852,7 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     pixel moves on by ``ahead`` to the reference time and meets the velocity half-way
     there, at ``s + ahead / 2`` (midpoint rule). The flow of a camera rotating or moving
     over a plane at a steady rate is a fixed field over the image, the projective flow
-    (:func:`_projective_basis`): fitted (robustly, to the reliable pixels) and used for
+    (:func:`_projective_flow`): fitted (robustly, to the reliable pixels) and used for
     the change of velocity between the two places. What is left (the depth of each
     point) travels with the point. A constant velocity per pixel misses the acceleration
     a point sees moving through a zoom or a perspective; the residual of its fit would
@@ -865,8 +871,9 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     if use.sum() < 32:
         return vel
     mid_x, mid_y = gx + 0.5 * flow[..., 0], gy + 0.5 * flow[..., 1]
-    bu, bv = _projective_basis(mid_x[sub], mid_y[sub], (h, w))
-    a = np.concatenate([bu[use], bv[use]]).astype(np.float64)
+    columns = np.stack([_projective_flow(unit, mid_x[sub], mid_y[sub], (h, w))
+                        for unit in np.eye(8)], axis=-1).reshape(-1, 2, 8)[use]
+    a = np.concatenate([columns[:, 0], columns[:, 1]]).astype(np.float64)
     b = np.concatenate([vel[sub][..., 0].ravel()[use], vel[sub][..., 1].ravel()[use]])
     n = int(use.sum())
     weight = np.ones(n)
@@ -878,19 +885,9 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
             r = np.hypot(r[:n], r[n:])
             weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
 
-    a1, a2, a3, a4, a5, a6, a7, a8 = coef.astype(np.float32)
-    scale = np.float32(1.0 / max(h, w))
-
-    def field(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Evaluate the fitted flow at ``(x, y)`` (:func:`_projective_basis`, written out)."""
-        x = (x - np.float32(0.5 * w)) * scale
-        y = (y - np.float32(0.5 * h)) * scale
-        quad = a7 * x + a8 * y
-        return np.stack([a1 + a2 * x + a3 * y + quad * x, a4 + a5 * x + a6 * y + quad * y],
-                        axis=-1)
-
-    return vel + field(gx + 0.5 * ahead[..., 0], gy + 0.5 * ahead[..., 1]) - field(mid_x,
-                                                                                   mid_y)
+    return (vel + _projective_flow(coef, gx + 0.5 * ahead[..., 0], gy + 0.5 * ahead[..., 1],
+                                   (h, w))
+            - _projective_flow(coef, mid_x, mid_y, (h, w)))
 
 
 @dataclass
