@@ -29,8 +29,8 @@ import numpy as np
 
 from .timing import SensorTiming
 
-__all__ = ["Fill", "WarpMode", "scanline_displacement", "resample_displacement", "splat",
-           "remap", "apply_maps", "fill_holes", "field_maps",
+__all__ = ["Fill", "WarpMode", "pixel_grid", "scanline_displacement", "resample_displacement",
+           "splat", "remap", "apply_maps", "fill_holes", "field_maps",
            "resize_maps", "remap_maps", "neighbour_sources", "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
@@ -290,6 +290,19 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
     return out.astype(image.dtype), valid
 
 
+def pixel_grid(height: int, width: int, top: int = 0, left: int = 0
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Column and row coordinates (float32, broadcast views) of a ``height x width`` block.
+
+    ``top`` and ``left`` offset them (a crop of a larger frame).
+    """
+    gx = np.broadcast_to(np.arange(left, left + width, dtype=np.float32)[None, :],
+                         (height, width))
+    gy = np.broadcast_to(np.arange(top, top + height, dtype=np.float32)[:, None],
+                         (height, width))
+    return gx, gy
+
+
 def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
                frame: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps for a per-pixel forward displacement ``p = s - field(s)``.
@@ -322,8 +335,7 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
     f = field.astype(np.float32)
     if frame is not None and frame != (h, w):
         f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
-    gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
-    gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    gx, gy = pixel_grid(h, w)
     mx, my = gx + f[..., 0], gy + f[..., 1]
     for _ in range(iterations):
         fs = cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)

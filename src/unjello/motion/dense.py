@@ -49,6 +49,7 @@ from threadpoolctl import ThreadpoolController
 
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
+from ..warp import pixel_grid
 
 __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical_flow",
            "solve_camera_trajectory", "row_flows", "half_row_flows", "flow_pair",
@@ -686,8 +687,7 @@ def invert_flow(flow: np.ndarray, iterations: int = 3) -> np.ndarray:
     True
     """
     h, w = flow.shape[:2]
-    gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
-    gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    gx, gy = pixel_grid(h, w)
     inv = -flow
     for _ in range(iterations):
         inv = -cv2.remap(flow, gx + inv[..., 0], gy + inv[..., 1], cv2.INTER_LINEAR,
@@ -741,8 +741,7 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     crop = (slice(y0, y1), slice(x0, x1))
     fl, here, near = flow[crop], cur[crop], edge[crop]
     ch, cw = near.shape
-    gx = np.broadcast_to(np.arange(x0, x1, dtype=np.float32)[None, :], (ch, cw))
-    gy = np.broadcast_to(np.arange(y0, y1, dtype=np.float32)[:, None], (ch, cw))
+    gx, gy = pixel_grid(ch, cw, y0, x0)
 
     def cost(f: np.ndarray) -> np.ndarray:
         warped = cv2.remap(prev, gx + f[..., 0], gy + f[..., 1], cv2.INTER_LINEAR,
@@ -864,8 +863,7 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     velocity field) 28.06 / 30.99.
     """
     h, w = vel.shape[:2]
-    gx = np.broadcast_to(np.arange(w, dtype=np.float32)[None, :], (h, w))
-    gy = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, w))
+    gx, gy = pixel_grid(h, w)
     sub = (slice(None, None, stride), slice(None, None, stride))
     use = ok[sub].ravel()
     if use.sum() < 32:
