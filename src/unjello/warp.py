@@ -26,6 +26,7 @@ from typing import Literal
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from .timing import SensorTiming
 
@@ -291,7 +292,7 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
 
 
 def pixel_grid(height: int, width: int, top: int = 0, left: int = 0
-               ) -> tuple[np.ndarray, np.ndarray]:
+               ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
     """Column and row coordinates (float32, broadcast views) of a ``height x width`` block.
 
     ``top`` and ``left`` offset them (a crop of a larger frame).
