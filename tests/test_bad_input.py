@@ -9,6 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from unjello.errors import InputError, UnjelloError
+from unjello.io.frames import write_image
 from unjello.io.video import VideoReader
 from unjello.pipeline import correct_video
 
@@ -178,3 +179,15 @@ def test_output_inside_input_folder_is_refused(tmp_path, scene):
         write_image(src / f"{i}.png", scene[:128, :128])
     line = _clean_failure(run("correct", src, "-o", src / "out"))
     assert "inside the input folder" in line
+
+
+def test_folder_with_frames_of_different_channels(tmp_path, scene):
+    # Same size, RGB then RGBA (a research folder with its masks and flows beside the
+    # frames): the line must say what differs, not repeat the same size twice.
+    src = tmp_path / "frames"
+    src.mkdir()
+    small = np.ascontiguousarray(scene[:64, :96])
+    write_image(src / "a.png", small)
+    write_image(src / "b.png", np.dstack([small, np.full(small.shape[:2], 255, np.uint8)]))
+    line = _clean_failure(run("correct", src, "-o", tmp_path / "out"))
+    assert "3 channels" in line and "4 channels" in line

@@ -621,6 +621,12 @@ def _side_by_side_planes(before: list[np.ndarray], after: list[np.ndarray]) -> l
     return out
 
 
+def _describe(img: np.ndarray) -> str:
+    """``WxH, N channel(s)`` of an image, for messages."""
+    channels = img.shape[2] if img.ndim == 3 else 1
+    return f"{img.shape[1]}x{img.shape[0]}, {channels} channel{'s' if channels > 1 else ''}"
+
+
 def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, reference: str,
                     config: CorrectionConfig, progress: Progress | None,
                     given: Trajectory | None = None, extras: _Extras | None = None
@@ -637,8 +643,8 @@ def _correct_folder(src: Path, dst: Path, readout: float | str, direction: str, 
         for f in files:
             img = read_image(f)
             if img.shape != first.shape:
-                raise InputError(f"{f.name}: size {img.shape[1]}x{img.shape[0]} differs from "
-                                 f"the first frame's {first.shape[1]}x{first.shape[0]}")
+                raise InputError(f"{f.name}: {_describe(img)} differs from the first frame's "
+                                 f"{_describe(first)} (a folder must hold one clip's frames)")
             yield img
 
     tmp = _temp_path(dst)
