@@ -190,3 +190,48 @@ def test_textureless_video_is_handled(tmp_path):
     assert "Traceback" not in res.stderr
     doc = json.loads(res.stdout)
     assert doc["frames"] == 4
+
+
+def test_correct_with_a_gyro_log(tmp_path, scene):
+    """A folder of frames and its gyro log (another clock, other axes): calibrated, corrected."""
+    import numpy as np
+
+    from unjello.motion.gyro import axes_matrix
+    from unjello.simulate import Motion, gyro_samples, simulate
+    from unjello.timing import SensorTiming
+
+    mot = Motion("shake", fps=25.0, amplitude=1.5)
+    src = tmp_path / "frames"
+    src.mkdir()
+    sim = list(simulate(scene, mot, SensorTiming(1.0), 32, size=(192, 144)))
+    for i, s in enumerate(sim):
+        write_image(src / f"f{i}.png", s.rolling)
+    t, rates = gyro_samples(mot, 1500.0, 32 / 25, axes=axes_matrix("Xzy"), start=100.0)
+    log = tmp_path / "gyro.csv"
+    log.write_text("time_ms,gx,gy,gz\n" + "\n".join(
+        f"{1000 * ti:.3f},{a:.6f},{b:.6f},{c:.6f}" for ti, (a, b, c) in zip(t, rates, strict=True)))
+    res = run("correct", src, "-o", tmp_path / "out", "--gyro", log, "--fps", 25, "--json",
+              "--motion-out", tmp_path / "m.json")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary["method"] == "gyro" and summary["frames"] == 32
+    assert "offset 100000" in " ".join(summary["messages"])
+    motion = json.loads((tmp_path / "m.json").read_text())
+    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
+                   for f, s in zip(motion["frames"], sim, strict=True)])
+    unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+    assert err < 0.1 * unc
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--method", "gyro"], "needs a gyro log"),
+    (["--gyro", "nolog.csv"], "cannot read the gyro log"),
+    (["--gyro", "in.mp4"], "not a gyro log"),
+    (["--gyro", "in.mp4", "--method", "paper"], "goes with --method gyro"),
+    (["--gyro", "in.mp4", "--gyro-axes", "XYY"], "gyro axes"),
+])
+def test_gyro_mistakes_are_one_line(tmp_path, clip, args, message):
+    args = [str(clip) if a == "in.mp4" else a for a in args]
+    line = _clean_failure(run("correct", clip, "-o", tmp_path / "out.mp4", *args))
+    assert message in line
+    assert not (tmp_path / "out.mp4").exists()

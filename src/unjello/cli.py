@@ -121,10 +121,11 @@ def _timing_options(f: Callable, simulated: bool = False) -> Callable:
 def _settings_options(f: Callable) -> Callable:
     """Options shared by ``correct`` and ``batch``: timing, method, warp, encoder, preset."""
     for opt in reversed([
-        click.option("--method", type=click.Choice(["dense", "paper"]), default="dense",
+        click.option("--method", type=click.Choice(["dense", "paper", "gyro"]), default="dense",
                      show_default=True,
                      help="Motion model: 'dense' = per-pixel flow with a scanline-resolution "
-                          "camera trajectory; 'paper' = Liang, Chang & Chen 2008."),
+                          "camera trajectory; 'paper' = Liang, Chang & Chen 2008; 'gyro' = "
+                          "a rotation per scanline from a gyro log (--gyro)."),
         click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
                      show_default=True,
                      help="Backward remap (fast) or the paper's forward splat."),
@@ -164,6 +165,34 @@ def _settings_options(f: Callable) -> Callable:
     return _timing_options(f)
 
 
+def _gyro_options(f: Callable) -> Callable:
+    """Options of the gyro method (``correct`` only: a log belongs to one clip)."""
+    for opt in reversed([
+        click.option("--gyro", type=click.Path(path_type=Path),
+                     help="Gyro log of the clip (text or CSV: a time and three angular rates "
+                          "per line); implies --method gyro."),
+        click.option("--gyro-layout", default="auto", show_default=True,
+                     help="Column order of the log, e.g. t,x,y,z or x,y,z,t; auto: the "
+                          "increasing column is the time."),
+        click.option("--gyro-units", type=click.Choice(["rad", "deg"]), default="rad",
+                     show_default=True, help="Unit of the logged rates (per second)."),
+        click.option("--gyro-axes", default="auto", show_default=True,
+                     help="Camera x, y, z as gyro axes, e.g. XYZ or yXz (lower case: "
+                          "negated); auto: found from the footage's motion."),
+        click.option("--gyro-offset", type=float,
+                     help="Time on the log's clock of the first frame, ms; default: found "
+                          "from the footage's motion."),
+        click.option("--focal", type=click.FloatRange(min=0, min_open=True),
+                     help="Focal length in pixels of the frame; default: found from the "
+                          "footage's motion."),
+        click.option("--fps", type=click.FloatRange(min=0, min_open=True), default=30.0,
+                     show_default=True,
+                     help="Frame rate of a folder of frames (a video states its own)."),
+    ]):
+        f = opt(f)
+    return f
+
+
 def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, EncodeOptions]:
     """Apply ``--preset`` and build the correction settings from the shared options.
 
@@ -174,6 +203,7 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
     from .errors import SettingsError
     from .motion.dense import VIBRATION, DenseConfig
     from .motion.global_motion import BlockMatchConfig
+    from .motion.gyro import GyroConfig
     from .motion.paper import PaperConfig
     from .pipeline import CorrectionConfig
 
@@ -184,14 +214,25 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
     vibration = {True: "on", False: "off"}.get(v["vibration"], v["vibration"])
     if vibration not in ("auto", "on", "off"):
         raise SettingsError(f"vibration must be auto, on or off, not {vibration!r}")
-    config = CorrectionConfig(method=v["method"], warp=v["warp"], fill=v["fill"],
+    method = v["method"]
+    gyro = GyroConfig()
+    if v.get("gyro") is not None:
+        if method == "paper":
+            raise SettingsError("--gyro goes with --method gyro, not paper")
+        method = "gyro"
+        offset = v["gyro_offset"]
+        gyro = GyroConfig(path=str(v["gyro"]), layout=v["gyro_layout"], units=v["gyro_units"],
+                          axes=v["gyro_axes"], offset=None if offset is None else offset / 1e3,
+                          focal=v["focal"], fps=v["fps"])
+    config = CorrectionConfig(method=method, warp=v["warp"], fill=v["fill"],
                               paper=PaperConfig(BlockMatchConfig(search=v["search"])),
                               dense=DenseConfig(flow_preset=v["flow_preset"],
                                                 work_width=v["work_width"],
                                                 per_pixel=not v["camera_only"],
                                                 edge_refine=v["edge_refine"],
                                                 detect_vibration=vibration == "auto",
-                                                **(VIBRATION if vibration == "on" else {})))
+                                                **(VIBRATION if vibration == "on" else {})),
+                              gyro=gyro)
     return (v["readout"], v["direction"], v["reference"], config,
             EncodeOptions(v["codec"], v["crf"], v["x264_preset"]))
 
@@ -207,6 +248,7 @@ def cli() -> None:
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               help="Output video, or folder for a folder input.")
 @_settings_options
+@_gyro_options
 @click.option("--motion-out", type=click.Path(path_type=Path),
               help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
 @click.option("--motion-in", type=click.Path(path_type=Path),
@@ -248,6 +290,8 @@ def correct(input: Path, output: Path, motion_out: Path | None, motion_in: Path 
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
         log(f"warning: motion bridged over on {bad} frame(s)")
+    if traj.method == "gyro" and len(traj):
+        log(traj.frames[0].note)  # the calibration: axes, offset, focal length, agreement
     detected = next((f.note.split(";")[0] for f in traj.frames
                      if f.note.startswith("vibration detected")), None)
     if detected:

@@ -32,6 +32,7 @@ from .io.video import (
     VideoWriter,
 )
 from .motion.dense import DenseConfig, DenseMethod
+from .motion.gyro import GyroConfig, GyroMethod, load_method
 from .motion.paper import PaperConfig, PaperMethod
 from .readout import ReadoutEstimate, estimate_readout, stated_readout
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
@@ -52,7 +53,7 @@ from .warp import (
 __all__ = ["CorrectionConfig", "Corrector", "correct_frames", "correct_video", "correct",
            "Progress", "METHODS", "estimate_readout_file"]
 
-METHODS = ("dense", "paper")
+METHODS = ("dense", "paper", "gyro")
 Progress = Callable[[int, int], None]
 
 
@@ -62,10 +63,11 @@ class CorrectionConfig:
 
     Parameters
     ----------
-    method : {'dense', 'paper'}
+    method : {'dense', 'paper', 'gyro'}
         Motion estimation method: ``dense`` (per-pixel flow with a scanline-resolution
-        camera trajectory, :mod:`unjello.motion.dense`) or ``paper`` (Liang, Chang &
-        Chen 2008, :mod:`unjello.motion.paper`).
+        camera trajectory, :mod:`unjello.motion.dense`), ``paper`` (Liang, Chang &
+        Chen 2008, :mod:`unjello.motion.paper`) or ``gyro`` (a rotation per scanline from
+        a gyroscope log, :mod:`unjello.motion.gyro`).
     warp : {'remap', 'splat'}
         Backward ``cv2.remap`` (fast) or the paper's forward splatting.
     fill : {'nearest', 'black'}
@@ -74,13 +76,16 @@ class CorrectionConfig:
         Settings of the paper's stages.
     dense : DenseConfig
         Settings of the dense method.
+    gyro : GyroConfig
+        Settings of the gyro method (its log, and what is known of it).
     """
 
-    method: Literal["dense", "paper"] = "dense"
+    method: Literal["dense", "paper", "gyro"] = "dense"
     warp: WarpMode = "remap"
     fill: Fill = "nearest"
     paper: PaperConfig = field(default_factory=PaperConfig)
     dense: DenseConfig = field(default_factory=DenseConfig)
+    gyro: GyroConfig = field(default_factory=GyroConfig)
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -128,18 +133,23 @@ class Corrector:
         the dtype.
     motion : Trajectory, optional
         Apply this motion (e.g. from ``--motion-in``) instead of estimating it.
+    fps : float, optional
+        Frame rate, for the gyro method (default ``config.gyro.fps``).
     """
 
     def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
-                 max_value: float | None = None, motion: Trajectory | None = None) -> None:
+                 max_value: float | None = None, motion: Trajectory | None = None,
+                 fps: float | None = None) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
-        self._method: PaperMethod | DenseMethod | _Replay
+        self._method: PaperMethod | DenseMethod | GyroMethod | _Replay
         if motion is not None:
             self._method = _Replay(motion)
         elif config.method == "paper":
             self._method = PaperMethod(timing, config.paper)
+        elif config.method == "gyro":
+            self._method = load_method(timing, config.gyro, fps)
         else:
             self._method = DenseMethod(timing, config.dense)
         self._held: deque[list[np.ndarray]] = deque()
@@ -695,7 +705,7 @@ def _correct_file(src: Path, dst: Path, readout: float | str, direction: str, re
         if info.width < 16 or info.height < 16:
             raise InputError(f"{src}: frames of {info.width}x{info.height} are too small")
         max_value = 1023.0 if info.bit_depth == 10 else 255.0
-        corr = Corrector(timing, config, max_value=max_value, motion=given)
+        corr = Corrector(timing, config, max_value=max_value, motion=given, fps=info.fps)
         traj = Trajectory(timing, (info.width, info.height),
                           method=given.method if given else config.method)
         tmp = _temp_path(dst)

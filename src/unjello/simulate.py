@@ -44,7 +44,7 @@ from .timing import SensorTiming, from_top_bottom, to_top_bottom
 from .trajectory import FrameMotion
 
 __all__ = ["Motion", "MOTIONS", "SCENES", "Layer", "SimulatedFrame", "simulate",
-           "motion_from_spec", "scene_layers"]
+           "motion_from_spec", "scene_layers", "gyro_samples"]
 
 MOTIONS = ("pan", "stop", "diagonal", "shake", "jello")
 
@@ -108,6 +108,54 @@ class Motion:
                 return np.stack([CubicSpline(kt, kx)(t), CubicSpline(kt, ky)(t)], axis=-1)
             return np.stack([np.interp(t, kt, kx), np.interp(t, kt, ky)], axis=-1)
         raise SettingsError(f"unknown motion {self.kind!r}; use one of {', '.join(MOTIONS)}")
+
+
+def gyro_samples(motion: Motion, focal: float, duration: float, *, rate: float = 400.0,
+                 axes: np.ndarray | None = None, start: float = 0.0, noise: float = 0.0,
+                 seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Return a gyroscope log of the camera rotation that makes ``motion`` (small angles).
+
+    An image shift of ``v`` px/s at focal length ``f`` px is a rotation of ``v / f``
+    rad/s: about the camera's y axis for ``v_x``, about its x axis (negated) for
+    ``v_y`` -- the convention of :func:`unjello.motion.gyro.gyro_field`, under which the
+    log reproduces the motion for a focal length much larger than the frame.
+
+    Parameters
+    ----------
+    motion : Motion
+        The image-plane displacement ``D(t)`` (``t`` in frames, at ``motion.fps``).
+    focal : float
+        Focal length, pixels.
+    duration : float
+        Seconds of log from video time 0 (one second more is logged on each side).
+    rate : float
+        Samples per second.
+    axes : ndarray of shape (3, 3), optional
+        Camera-from-gyro axis mapping of the mounting (default identity).
+    start : float
+        Log clock time of video time 0, seconds.
+    noise : float
+        Standard deviation of white noise added to each rate, rad/s.
+    seed : int
+        Noise seed.
+
+    Returns
+    -------
+    time : ndarray of shape (n,)
+        Seconds on the log's clock.
+    rates : ndarray of shape (n, 3)
+        rad/s about the gyro's axes.
+    """
+    t = np.arange(-1.0, duration + 1.0, 1.0 / rate)
+    eps = 1e-3
+    frames = t * motion.fps
+    v = (motion(frames + eps) - motion(frames - eps)) / (2 * eps) * motion.fps  # px/s
+    cam = np.stack([-v[:, 1] / focal, v[:, 0] / focal, np.zeros(t.size)], axis=-1)
+    m = np.eye(3) if axes is None else np.asarray(axes, dtype=np.float64)
+    rates = cam @ m  # camera = m @ gyro, so gyro = m.T @ camera
+    if noise > 0:
+        rates = rates + np.random.default_rng(seed).normal(0.0, noise, rates.shape)
+    return t + start, rates
 
 
 def motion_from_spec(spec: str, fps: float = 30.0, speed: float = 8.0, amplitude: float = 1.0,

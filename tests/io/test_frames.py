@@ -40,3 +40,12 @@ def test_mixed_sizes(tmp_path):
     write_image(tmp_path / "b.png", np.zeros((40, 32, 3), np.uint8))
     with pytest.raises(InputError, match="differs"):
         correct_video(tmp_path, tmp_path.parent / "out_mixed")
+
+
+def test_frames_are_listed_in_natural_order(tmp_path):
+    """Unpadded numbers (frame-99, frame-100) keep the clip's order, not the string order."""
+    img = np.zeros((4, 4, 3), np.uint8)
+    for n in (100, 9, 99, 101, 10):
+        write_image(tmp_path / f"frame-{n}.png", img)
+    assert [p.stem for p in list_frames(tmp_path)] == [
+        "frame-9", "frame-10", "frame-99", "frame-100", "frame-101"]

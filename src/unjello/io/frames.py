@@ -7,6 +7,7 @@ and format of the input frame and is atomic (temporary name, then rename).
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import cv2
@@ -19,8 +20,15 @@ __all__ = ["IMAGE_SUFFIXES", "list_frames", "read_image", "write_image"]
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
+def _natural_key(path: Path) -> list[str | int]:
+    """Sort key of a name with its runs of digits as numbers (``a9`` < ``a10``)."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name)]
+
+
 def list_frames(folder: str | os.PathLike) -> list[Path]:
-    """Return the image files of ``folder`` sorted by name.
+    """Return the image files of ``folder`` in natural order of their names.
+
+    Runs of digits compare as numbers: ``frame-99`` comes before ``frame-100``.
 
     Raises
     ------
@@ -28,9 +36,9 @@ def list_frames(folder: str | os.PathLike) -> list[Path]:
         If the folder holds no image.
     """
     folder = Path(folder)
-    files = sorted(p for p in folder.iterdir()
-                   if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES
-                   and not p.name.startswith("."))
+    files = sorted((p for p in folder.iterdir()
+                    if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES
+                    and not p.name.startswith(".")), key=_natural_key)
     if not files:
         raise InputError(f"{folder}: no images ({', '.join(IMAGE_SUFFIXES)}) in this folder")
     return files

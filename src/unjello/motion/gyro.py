@@ -1,0 +1,595 @@
+"""Beyond the paper: rolling-shutter correction from a gyroscope log.
+
+A camera that shakes mostly *rotates*; a gyroscope measures that rotation at hundreds of
+samples a second, far finer than one sample per frame, so the orientation at the time
+of every scanline is known (the approach of Karpenko et al. 2011 and Gyroflow). Row
+``y`` of frame ``k`` is read at ``t_y = t_k + rho T y / h`` (the paper's eq. 10 with
+readout ``rho`` of the frame interval ``T``); a pixel ``s`` of that row, seen at the
+reference time ``t_ref`` of its frame, lies at
+
+    p = K R(phi) K^-1 s,   phi = M (Theta(t_ref) - Theta(t_y)),
+
+with ``Theta`` the integral of the angular rate (first order in the small rotation
+within a frame), ``M`` the mapping from the gyro's axes to the camera's and ``K`` the
+pinhole intrinsics (focal ``f``, centre of the frame). The per-pixel displacement
+``s - p`` is what the dense warp applies (:func:`unjello.warp.field_maps`): one
+homography per scanline, which handles roll and the keystone of pitch and yaw, not
+only the translation of the paper's model. Lens distortion and camera translation
+(parallax) are not modelled.
+
+What a log rarely states -- the offset between its clock and the video's, the axes, the
+focal length -- is found from the footage (:func:`calibrate`): DIS optical flow of the
+first frames gives each row's motion, which the gyro must predict. A coarse search over
+the whole log matches each frame pair's mean shift (``dx ~ f b``, ``dy ~ -f a`` for the
+camera-axis rotation ``(a, b, c)`` between the frames' middle rows, for every signed
+choice of gyro axes), then a fine search within a frame interval matches every row at its
+own time, roll (``dx ~ -c (y - c_y)``) included.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+from scipy.spatial.transform import Rotation
+
+from ..errors import InputError, SettingsError
+from ..timing import SensorTiming
+from ..trajectory import FrameMotion
+from ..warp import pixel_grid
+from .dense import optical_flow, row_flows
+
+__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "read_gyro",
+           "axes_matrix", "calibrate", "gyro_field"]
+
+# Flow for the calibration is computed on copies at most this wide (DIS medium at its
+# full resolution there).
+_SYNC_WIDTH = 320
+# A log is refused when it explains less than this share of the measured row motion.
+# Measured: simulated shake with its own log 1.00; the hand-held phone clip from a car
+# (parallax, the dashboard) 0.61; random logs 0.38-0.48 on 12 frames, below 0.2 on 30 and
+# 60 (the search over offsets and axes fits a short clip's few pairs by chance).
+_AGREEMENT = 0.3
+# The per-pixel field is sampled every this many pixels (a homography per row is smooth).
+_STEP = 8
+
+
+@dataclass(frozen=True)
+class GyroLog:
+    """Angular rate samples of a gyroscope.
+
+    Parameters
+    ----------
+    time : ndarray of shape (n,)
+        Sample times in seconds, increasing (the log's own clock).
+    rate : ndarray of shape (n, 3)
+        Angular rate about the gyro's x, y, z axes, rad/s.
+    """
+
+    time: np.ndarray
+    rate: np.ndarray
+    angle: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.time, dtype=np.float64)
+        r = np.asarray(self.rate, dtype=np.float64)
+        if t.ndim != 1 or r.shape != (t.size, 3) or t.size < 2:
+            raise InputError("a gyro log needs at least two samples of time and three rates")
+        if not np.all(np.diff(t) > 0):
+            raise InputError("gyro sample times must increase")
+        object.__setattr__(self, "time", t)
+        object.__setattr__(self, "rate", r)
+        # Theta(t): the integral of the rate (trapezoid rule), linear between samples.
+        object.__setattr__(self, "angle", cumulative_trapezoid(r, t, axis=0, initial=0.0))
+
+    def theta(self, t: np.ndarray) -> np.ndarray:
+        """Integrated rate at times ``t`` (seconds), shape ``t.shape + (3,)``.
+
+        Outside the log the angle is held (no rotation is assumed there).
+        """
+        t = np.asarray(t, dtype=np.float64)
+        return np.stack([np.interp(t, self.time, self.angle[:, i]) for i in range(3)], axis=-1)
+
+    def rate_at(self, t: np.ndarray) -> np.ndarray:
+        """Angular rate at times ``t`` (seconds), zero outside the log."""
+        t = np.asarray(t, dtype=np.float64)
+        return np.stack([np.interp(t, self.time, self.rate[:, i], left=0.0, right=0.0)
+                         for i in range(3)], axis=-1)
+
+
+def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> GyroLog:
+    """Read a text or CSV gyro log: one sample per line, a time and three rates.
+
+    Columns may be separated by commas, semicolons, tabs or spaces; lines that are not
+    numbers (a header, ``#`` comments) are skipped.
+
+    Parameters
+    ----------
+    path : path-like
+        The log.
+    layout : str
+        The first four columns' meaning, e.g. ``"t,x,y,z"`` or ``"x,y,z,t"``; ``"auto"``
+        takes the one strictly increasing column of the first four as the time and the
+        others, in order, as x, y, z.
+    units : {'rad', 'deg'}
+        Unit of the rates (per second).
+
+    Returns
+    -------
+    GyroLog
+        The time unit is read off the sampling interval: seconds below 50 ms, then
+        milliseconds, microseconds, nanoseconds (IMUs sample at 100 Hz - 8 kHz).
+
+    Raises
+    ------
+    InputError
+        Not a readable log of four numeric columns.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(errors="replace")
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read the gyro log ({exc.strerror or exc})") from None
+    rows = []
+    for line in text.splitlines():
+        parts = [v for v in re.split(r"[,;\s]+", line.strip()) if v]
+        try:
+            vals = [float(v) for v in parts[:4]]
+        except ValueError:
+            continue
+        if len(vals) == 4:
+            rows.append(vals)
+    if len(rows) < 10:
+        raise InputError(f"{p}: not a gyro log (need lines of a time and three angular "
+                         f"rates; found {len(rows)})")
+    data = np.asarray(rows)
+    if layout == "auto":
+        rising = [i for i in range(4) if np.all(np.diff(data[:, i]) > 0)]
+        if not rising:
+            raise InputError(f"{p}: no column of increasing times; give the layout "
+                             "(e.g. --gyro-layout t,x,y,z)")
+        names = ["x", "y", "z"]
+        order = {rising[0]: "t"}
+        order.update({i: names.pop(0) for i in range(4) if i != rising[0]})
+        cols = [order[i] for i in range(4)]
+    else:
+        cols = [c.strip().lower() for c in layout.split(",")]
+        if sorted(cols) != ["t", "x", "y", "z"]:
+            raise SettingsError(f"gyro layout must name t, x, y and z once each, got {layout!r}")
+    t = data[:, cols.index("t")]
+    rate = data[:, [cols.index(a) for a in "xyz"]]
+    if units not in ("rad", "deg"):
+        raise SettingsError(f"gyro units must be 'rad' or 'deg', got {units!r}")
+    if units == "deg":
+        rate = np.deg2rad(rate)
+    dt = float(np.median(np.diff(t)))
+    if dt <= 0:
+        raise InputError(f"{p}: gyro sample times must increase")
+    scale = next(s for limit, s in ((0.05, 1.0), (50.0, 1e-3), (5e4, 1e-6), (np.inf, 1e-9))
+                 if dt < limit)
+    return GyroLog(t * scale, rate)
+
+
+def axes_matrix(spec: str) -> np.ndarray:
+    """Camera-from-gyro axis mapping from three letters, e.g. ``"XYZ"`` or ``"Xzy"``.
+
+    Letter ``i`` names the gyro axis that is camera axis ``i`` (x right, y down, z along
+    the view, in the frames as unjello reads them top to bottom); lower case negates it.
+    """
+    if len(spec) != 3 or sorted(spec.upper()) != ["X", "Y", "Z"]:
+        raise SettingsError(f"gyro axes must be three letters naming X, Y and Z once each "
+                            f"(lower case: negated), got {spec!r}")
+    m = np.zeros((3, 3))
+    for i, ch in enumerate(spec):
+        m[i, "XYZ".index(ch.upper())] = 1.0 if ch.isupper() else -1.0
+    return m
+
+
+def _axes_spec(m: np.ndarray) -> str:
+    out = ""
+    for i in range(3):
+        j = int(np.argmax(np.abs(m[i])))
+        out += "XYZ"[j] if m[i, j] > 0 else "xyz"[j]
+    return out
+
+
+@dataclass(frozen=True)
+class GyroConfig:
+    """Settings of the gyro method.
+
+    Parameters
+    ----------
+    path : str, optional
+        The gyro log (:func:`read_gyro`).
+    layout : str
+        Column layout of the log, or ``"auto"``.
+    units : {'rad', 'deg'}
+        Unit of the logged rates per second.
+    axes : str
+        :func:`axes_matrix` spec, or ``"auto"`` (found by :func:`calibrate`).
+    offset : float, optional
+        Time on the log's clock of the first frame's first scanline, seconds; found by
+        :func:`calibrate` if not given.
+    focal : float, optional
+        Focal length in pixels of the full frame; found by :func:`calibrate` if not
+        given.
+    fps : float
+        Frame rate, for a folder of frames (a video states its own).
+    sync_frames : int
+        Frames at the start of the clip whose motion calibrates the log (they are held
+        until then); at least 30 tell a log of the clip from another one.
+    """
+
+    path: str | None = None
+    layout: str = "auto"
+    units: str = "rad"
+    axes: str = "auto"
+    offset: float | None = None
+    focal: float | None = None
+    fps: float = 30.0
+    sync_frames: int = 60
+
+    def __post_init__(self) -> None:
+        if self.axes != "auto":
+            axes_matrix(self.axes)
+        if self.focal is not None and not self.focal > 0:
+            raise SettingsError(f"focal length must be positive, got {self.focal}")
+        if not self.fps > 0:
+            raise SettingsError(f"frame rate must be positive, got {self.fps}")
+        if self.sync_frames < 3:
+            raise SettingsError("gyro calibration needs at least 3 frames")
+
+
+@dataclass(frozen=True)
+class GyroCalibration:
+    """How a gyro log maps to a clip.
+
+    Parameters
+    ----------
+    axes : ndarray of shape (3, 3)
+        Camera-from-gyro axis mapping (:func:`axes_matrix`).
+    offset : float
+        Log time of the first frame's first scanline, seconds.
+    focal : float
+        Focal length, pixels of the full frame.
+    agreement : float
+        Share of the measured row motion the gyro explains (1: all; NaN: not measured).
+    """
+
+    axes: np.ndarray
+    offset: float
+    focal: float
+    agreement: float = float("nan")
+
+    def describe(self) -> str:
+        """One line: axes, offset, focal length and agreement."""
+        text = (f"gyro axes {_axes_spec(self.axes)}, offset {1000 * self.offset:.1f} ms, "
+                f"focal {self.focal:.0f} px")
+        if np.isfinite(self.agreement):
+            text += f", explains {100 * self.agreement:.0f}% of the row motion"
+        return text
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """Measured row flows of frame pairs, in full-frame pixels."""
+
+    pair: np.ndarray      # (m,) index k of the later frame of the pair
+    row: np.ndarray       # (m,) row y in frame k
+    flow: np.ndarray      # (m, 2) where the row's content is in frame k - 1, minus (x, y)
+    weight: np.ndarray    # (m,)
+
+    @classmethod
+    def stack(cls, pairs: Sequence[tuple[int, np.ndarray, np.ndarray, np.ndarray]]) -> _Rows:
+        """Join ``(k, rows, flows, weights)`` of several pairs."""
+        return cls(pair=np.concatenate([np.full(r[1].size, r[0]) for r in pairs]),
+                   row=np.concatenate([r[1] for r in pairs]),
+                   flow=np.concatenate([r[2] for r in pairs]),
+                   weight=np.concatenate([r[3] for r in pairs]))
+
+
+def _candidate_axes() -> list[np.ndarray]:
+    """All 48 signed permutations of the three axes."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            m = np.zeros((3, 3))
+            m[np.arange(3), perm] = signs
+            out.append(m)
+    return out
+
+
+def _row_model(theta_a: np.ndarray, theta_b: np.ndarray, axes: np.ndarray, y: np.ndarray,
+               cy: float, focal: float) -> tuple[np.ndarray, np.ndarray]:
+    """Linearised shift of the centre of rows from time a to time b: (f-part, rest).
+
+    With the camera rotation ``(a, b, c) = M (Theta_b - Theta_a)``, a point of row ``y``
+    at the centre column moves by ``f (b, -a (1 + r^2)) + (-c (y - c_y), 0)`` with
+    ``r = (y - c_y) / f`` (first order in the rotation).
+    """
+    phi = (theta_b - theta_a) @ axes.T
+    r2 = ((y - cy) / focal) ** 2
+    g = np.stack([phi[:, 1], -phi[:, 0] * (1 + r2)], axis=-1)
+    rest = np.stack([-phi[:, 2] * (y - cy), np.zeros_like(y)], axis=-1)
+    return g, rest
+
+
+def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTiming,
+              frame_interval: float, size: tuple[int, int], config: GyroConfig
+              ) -> GyroCalibration:
+    """Find the log's time offset, axes and the focal length from measured row motion.
+
+    Parameters
+    ----------
+    rows : _Rows
+        Row flows of consecutive frame pairs (from :class:`GyroMethod`).
+    starts : ndarray
+        Start time of each frame, in frame intervals.
+    log : GyroLog
+        The gyro samples.
+    timing : SensorTiming
+        Readout (frames in top-bottom orientation).
+    frame_interval : float
+        Seconds per frame interval.
+    size : (int, int)
+        Frame height and width.
+    config : GyroConfig
+        What is given (``axes``, ``offset``, ``focal``) is kept.
+
+    Returns
+    -------
+    GyroCalibration
+
+    Raises
+    ------
+    InputError
+        When the gyro does not explain the footage's motion (no offset, axes and focal
+        length in a plausible range fit).
+    """
+    h, w = size
+    cy = (h - 1) / 2.0
+    T, rho = frame_interval, timing.readout
+    axes_list = ([axes_matrix(config.axes)] if config.axes != "auto" else _candidate_axes())
+    fmin, fmax = 0.13 * w, 12.0 * w  # horizontal fields of view of 150 to 5 degrees
+    wgt = rows.weight
+    t_a = (starts[rows.pair] + rho * rows.row / h) * T
+    t_b = (starts[rows.pair - 1] + rho * (rows.row + rows.flow[:, 1]) / h) * T
+
+    if config.offset is None:
+        # Coarse: each pair's mean shift against the rotation between the middle rows,
+        # every quarter frame over the whole log, every signed choice of two axes.
+        pairs = np.unique(rows.pair)
+        d = np.array([np.average(rows.flow[rows.pair == k], axis=0,
+                                 weights=wgt[rows.pair == k]) for k in pairs])
+        mid = 0.5 * rho * T
+        ta, tb = starts[pairs] * T + mid, starts[pairs - 1] * T + mid
+        lo, hi = log.time[0] - ta.min(), log.time[-1] - ta.max()
+        if lo > hi:
+            lo, hi = hi, lo
+        offsets = np.arange(lo - T, hi + T, T / 4)
+        inc = log.theta(tb[None] + offsets[:, None]) - log.theta(ta[None] + offsets[:, None])
+        gx = np.einsum("oki,k->oi", inc, d[:, 0])  # (offsets, axes)
+        gy = np.einsum("oki,k->oi", inc, d[:, 1])
+        ss = np.einsum("oki,oki->oi", inc, inc)
+        energy = float((d ** 2).sum()) + 1e-12
+        best: tuple[float, float, np.ndarray | None] = (-1.0, 0.0, None)
+        for m in axes_list:
+            ib, sb = int(np.argmax(np.abs(m[1]))), m[1].max() + m[1].min()
+            ia, sa = int(np.argmax(np.abs(m[0]))), m[0].max() + m[0].min()
+            num = sb * gx[:, ib] - sa * gy[:, ia]
+            den = ss[:, ib] + ss[:, ia] + 1e-18
+            f = num / den
+            score = np.where((f > fmin) & (f < fmax), num ** 2 / (den * energy), 0.0)
+            i = int(np.argmax(score))
+            if score[i] > best[0]:
+                best = (float(score[i]), float(offsets[i]), m)
+        coarse = [best[1]]
+        fine = np.arange(-T, T + 1e-9, T / 64)
+        if best[2] is not None:  # the roll axis is the third; its sign is left to the rows
+            axes_list = [m for m in axes_list if np.array_equal(m[:2], best[2][:2])]
+    else:
+        coarse, fine = [config.offset], np.zeros(1)
+
+    # Fine: every row at its own time, roll included; focal fitted by least squares.
+    u_all = rows.flow
+    energy = float(np.sum(wgt[:, None] * u_all ** 2)) + 1e-12
+    result: tuple[float, np.ndarray, float, float] | None = None
+    f0 = config.focal or float(w)
+    for o in coarse[0] + fine:
+        th_a, th_b = log.theta(t_a + o), log.theta(t_b + o)
+        for m in axes_list:
+            f = f0
+            for _ in range(2):  # the keystone term depends (weakly) on f
+                g, rest = _row_model(th_a, th_b, m, rows.row, cy, f)
+                u = u_all - rest
+                if config.focal is None:
+                    den = float(np.sum(wgt[:, None] * g * g))
+                    f = float(np.sum(wgt[:, None] * u * g)) / den if den > 0 else 0.0
+                    if not fmin < f < fmax:
+                        break
+            if not fmin < f < fmax:
+                continue
+            resid = float(np.sum(wgt[:, None] * (u - f * g) ** 2))
+            agree = 1.0 - resid / energy
+            if result is None or agree > result[3]:
+                result = (float(o), m, f, agree)
+    if result is None or result[3] < _AGREEMENT:
+        raise InputError("the gyro log does not explain the footage's motion (check the log "
+                         "belongs to this clip, its layout and --gyro-units)")
+    return GyroCalibration(axes=result[1], offset=result[0], focal=result[2],
+                           agreement=result[3])
+
+
+def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: float,
+               frame_interval: float, size: tuple[int, int], step: int = _STEP
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-pixel displacement of one frame: a homography per scanline (module notes).
+
+    Parameters
+    ----------
+    log : GyroLog
+    cal : GyroCalibration
+    timing : SensorTiming
+        Readout and reference (top-bottom orientation).
+    start : float
+        The frame's first scanline time, frame intervals.
+    frame_interval : float
+        Seconds per frame interval.
+    size : (int, int)
+        Frame height and width.
+    step : int
+        Sampling of the field, pixels.
+
+    Returns
+    -------
+    field : ndarray of shape (ceil(h / step), ceil(w / step), 2), float32
+        ``s - p`` at the grid's pixel centres, in full-frame pixels.
+    displacement : ndarray of shape (h, 2)
+        ``s - p`` at the centre column of every scanline (eq. 26's per-scanline value).
+    velocity : ndarray of shape (h, 2)
+        Image velocity at the centre column, pixels per frame interval (first order).
+    """
+    h, w = size
+    f = cal.focal
+    k = np.array([[f, 0, (w - 1) / 2.0], [0, f, (h - 1) / 2.0], [0, 0, 1.0]])
+    k_inv = np.linalg.inv(k)
+    t0 = cal.offset
+    t_ref = t0 + timing.reference_time(h, start) * frame_interval
+    th_ref = log.theta(np.array([t_ref]))[0]
+
+    def moved(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Where pixels (x, row y) at their row's time are at the reference time."""
+        t = t0 + timing.row_times(h, start)[0] * frame_interval  # row 0's time
+        t_rows = t + timing.readout * frame_interval * y / h
+        phi = (th_ref[None] - log.theta(t_rows)) @ cal.axes.T
+        hom = k @ Rotation.from_rotvec(phi).as_matrix() @ k_inv  # (n_rows, 3, 3)
+        pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
+        q = np.einsum("rij,rcj->rci", hom, pts)
+        return q[..., :2] / q[..., 2:3]
+
+    hf, wf = -(-h // step), -(-w // step)
+    gy = (np.arange(hf) + 0.5) * h / hf - 0.5
+    gx = (np.arange(wf) + 0.5) * w / wf - 0.5
+    src = np.stack(np.meshgrid(gx, gy), axis=-1)
+    fld = (src - moved(gy, gx)).astype(np.float32)
+    ys = np.arange(h, dtype=np.float64)
+    cx = np.array([(w - 1) / 2.0])
+    disp = (np.stack([np.broadcast_to(cx, (h,)), ys], axis=-1) - moved(ys, cx)[:, 0])
+    t_rows = t0 + timing.row_times(h, start) * frame_interval
+    om = log.rate_at(t_rows) @ cal.axes.T * frame_interval  # rad per frame interval
+    r2 = ((ys - (h - 1) / 2.0) / f) ** 2
+    vel = np.stack([f * om[:, 1] - om[:, 2] * (ys - (h - 1) / 2.0),
+                    -f * om[:, 0] * (1 + r2)], axis=-1)
+    return fld, disp, vel
+
+
+class GyroMethod:
+    """Streaming gyro method: calibrates on the first ``sync_frames``, then one frame in, one out.
+
+    Parameters
+    ----------
+    timing : SensorTiming
+        Readout and reference (frames in top-bottom orientation).
+    log : GyroLog
+        The gyro samples.
+    config : GyroConfig
+        What is known of the log; the rest is calibrated.
+    fps : float, optional
+        Frame rate; default ``config.fps``.
+    """
+
+    def __init__(self, timing: SensorTiming, log: GyroLog, config: GyroConfig = GyroConfig(),
+                 fps: float | None = None) -> None:
+        self.timing = timing
+        self.log = log
+        self.config = config
+        self.frame_interval = 1.0 / float(fps or config.fps)
+        self.calibration: GyroCalibration | None = None
+        if config.axes != "auto" and config.offset is not None and config.focal is not None:
+            self.calibration = GyroCalibration(axes_matrix(config.axes), config.offset,
+                                               config.focal)
+        self._starts: list[float] = []
+        self._small: list[np.ndarray] = []
+        self._rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._size = (0, 0)
+        self._next = 0
+
+    def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
+        """Add the next frame (grey, 0-255, top-bottom) starting at ``start`` (frame intervals)."""
+        self._size = frame.shape[:2]
+        self._starts.append(float(start))
+        if self.calibration is None:
+            self._measure(frame)
+            if len(self._starts) >= self.config.sync_frames:
+                self._calibrate()
+        return self._ready()
+
+    def flush(self) -> list[FrameMotion]:
+        """Return the motion of the frames still pending."""
+        if self.calibration is None and self._starts:
+            self._calibrate()
+        return self._ready()
+
+    def _measure(self, frame: np.ndarray) -> None:
+        """Row flows of the newest pair, in full-frame pixels."""
+        h, w = frame.shape[:2]
+        scale = min(1.0, _SYNC_WIDTH / w)
+        size = (max(8, round(w * scale)), max(8, round(h * scale)))
+        small = cv2.resize(np.asarray(frame, np.float32), size, interpolation=cv2.INTER_AREA)
+        self._small.append(small)
+        if len(self._small) < 2:
+            return
+        prev, cur = self._small[-2], self._small[-1]
+        flow = optical_flow(cur, prev, "medium", 0, 0)
+        gx, gy = pixel_grid(size[1], size[0])
+        gx, gy = gx + flow[..., 0], gy + flow[..., 1]
+        ok = (gx >= 0) & (gx <= size[0] - 1) & (gy >= 0) & (gy <= size[1] - 1)  # lands inside
+        y, med, wgt = row_flows(flow, ok)
+        sx, sy = w / size[0], h / size[1]
+        self._rows.append((len(self._small) - 1, (y + 0.5) * sy - 0.5,
+                           med * np.array([sx, sy]), wgt))
+        self._small[-2] = np.empty(0)  # only the newest copy is needed again
+
+    def _calibrate(self) -> None:
+        if not self._rows:
+            raise InputError("the gyro method needs at least two frames to calibrate the log")
+        self.calibration = calibrate(_Rows.stack(self._rows), np.asarray(self._starts),
+                                     self.log, self.timing, self.frame_interval, self._size,
+                                     self.config)
+        self._small, self._rows = [], []
+
+    def _ready(self) -> list[FrameMotion]:
+        out: list[FrameMotion] = []
+        cal = self.calibration
+        if cal is None:
+            return out
+        first = self.log.time[0] - cal.offset
+        last = self.log.time[-1] - cal.offset
+        while self._next < len(self._starts):
+            start = self._starts[self._next]
+            fld, disp, vel = gyro_field(self.log, cal, self.timing, start,
+                                        self.frame_interval, self._size)
+            t = start * self.frame_interval
+            inside = first <= t and t + self.frame_interval <= last
+            note = cal.describe() if self._next == 0 else ""
+            if not inside:
+                note = "outside the gyro log: no rotation known"
+            out.append(FrameMotion(self._next, start, disp, vel, ok=inside, note=note,
+                                   field=fld))
+            self._next += 1
+        return out
+
+
+def load_method(timing: SensorTiming, config: GyroConfig, fps: float | None
+                ) -> GyroMethod:
+    """Read ``config.path`` and build the method (the pipeline's entry point)."""
+    if not config.path:
+        raise SettingsError("the gyro method needs a gyro log (--gyro FILE)")
+    return GyroMethod(timing, read_gyro(config.path, config.layout, config.units), config, fps)
+
