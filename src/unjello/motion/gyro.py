@@ -20,10 +20,10 @@ only the translation of the paper's model. Lens distortion and camera translatio
 What a log rarely states -- the offset between its clock and the video's, the axes, the
 focal length -- is found from the footage (:func:`calibrate`): DIS optical flow of the
 first frames gives each row's motion, which the gyro must predict. A coarse search over
-the whole log matches each frame pair's mean shift (``dx ~ f b``, ``dy ~ -f a`` for the
-camera-axis rotation ``(a, b, c)`` between the frames' middle rows, for every signed
-choice of gyro axes), then a fine search within a frame interval matches every row at its
-own time, roll (``dx ~ -c (y - c_y)``) included.
+the whole log matches eight rows of every frame pair (``dx ~ f b``, ``dy ~ -f a`` for the
+camera-axis rotation ``(a, b, c)`` between the row's times in the two frames, for every
+signed choice of gyro axes), then a fine search within a frame interval matches every
+row, roll (``dx ~ -c (y - c_y)``) included.
 """
 
 from __future__ import annotations
@@ -362,22 +362,27 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
     t_b = (starts[rows.pair - 1] + rho * (rows.row + rows.flow[:, 1]) / h) * T
 
     if config.offset is None:
-        # Coarse: each pair's mean shift against the rotation between the middle rows,
-        # every quarter frame over the whole log, every signed choice of two axes.
-        pairs = np.unique(rows.pair)
-        d = np.array([np.average(rows.flow[rows.pair == k], axis=0,
-                                 weights=wgt[rows.pair == k]) for k in pairs])
-        mid = 0.5 * rho * T
-        ta, tb = starts[pairs] * T + mid, starts[pairs - 1] * T + mid
+        # Coarse: eight rows of every pair, each at its own time, against the rotation
+        # between those times (linearised, no roll), every eighth of a frame interval over
+        # the whole log, every signed choice of two axes; the focal length in closed form.
+        pick = np.concatenate([np.flatnonzero(rows.pair == k)[
+            np.linspace(0, np.sum(rows.pair == k) - 1, 8).astype(int)]
+            for k in np.unique(rows.pair)])
+        d, wp = rows.flow[pick], wgt[pick]
+        ta, tb = t_a[pick], t_b[pick]
         lo, hi = log.time[0] - ta.min(), log.time[-1] - ta.max()
         if lo > hi:
             lo, hi = hi, lo
-        offsets = np.arange(lo - T, hi + T, T / 4)
-        inc = log.theta(tb[None] + offsets[:, None]) - log.theta(ta[None] + offsets[:, None])
-        gx = np.einsum("oki,k->oi", inc, d[:, 0])  # (offsets, axes)
-        gy = np.einsum("oki,k->oi", inc, d[:, 1])
-        ss = np.einsum("oki,oki->oi", inc, inc)
-        energy = float((d ** 2).sum()) + 1e-12
+        offsets = np.arange(lo - T, hi + T, T / 8)
+        gx, gy, ss = (np.empty((offsets.size, 3)) for _ in range(3))  # (offsets, axes)
+        chunk = max(1, 2 ** 22 // pick.size)  # an hour's log: 900 000 offsets
+        for c in range(0, offsets.size, chunk):
+            o = offsets[c:c + chunk, None]
+            inc = log.theta(tb[None] + o) - log.theta(ta[None] + o)
+            gx[c:c + chunk] = np.einsum("oki,k->oi", inc, wp * d[:, 0])
+            gy[c:c + chunk] = np.einsum("oki,k->oi", inc, wp * d[:, 1])
+            ss[c:c + chunk] = np.einsum("oki,oki,k->oi", inc, inc, wp)
+        energy = float(np.sum(wp[:, None] * d ** 2)) + 1e-12
         best: tuple[float, float, np.ndarray | None] = (-1.0, 0.0, None)
         for m in axes_list:
             ib, sb = int(np.argmax(np.abs(m[1]))), m[1].max() + m[1].min()
@@ -577,11 +582,11 @@ class GyroMethod:
                                         self.frame_interval, self._size)
             t = start * self.frame_interval
             inside = first <= t and t + self.frame_interval <= last
-            note = cal.describe() if self._next == 0 else ""
+            notes = [cal.describe()] if self._next == 0 else []
             if not inside:
-                note = "outside the gyro log: no rotation known"
-            out.append(FrameMotion(self._next, start, disp, vel, ok=inside, note=note,
-                                   field=fld))
+                notes.append("outside the gyro log: no rotation known")
+            out.append(FrameMotion(self._next, start, disp, vel, ok=inside,
+                                   note="; ".join(notes), field=fld))
             self._next += 1
         return out
 
