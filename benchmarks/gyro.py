@@ -41,7 +41,7 @@ PHONE = Path(__file__).resolve().parents[2] / "shared" / "data" / "sequences" / 
 
 
 def write_log(path: Path, t: np.ndarray, rates: np.ndarray) -> None:
-    """The log as CSV: time (s), then the three rates."""
+    """Write the log as CSV: time (s), then the three rates."""
     np.savetxt(path, np.column_stack([t, rates]), delimiter=",", header="t,x,y,z")
 
 
