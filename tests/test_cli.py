@@ -221,6 +221,11 @@ def test_correct_with_a_gyro_log(tmp_path, scene):
                    for f, s in zip(motion["frames"], sim, strict=True)])
     unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
     assert err < 0.1 * unc
+    # The same log as a sidecar, NAME.gyro.csv beside the input, is found by --method gyro.
+    log.rename(tmp_path / "frames.gyro.csv")
+    res = run("correct", src, "-o", tmp_path / "out2", "--method", "gyro", "--fps", 25, "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["method"] == "gyro"
 
 
 @pytest.mark.parametrize("args, message", [

@@ -216,14 +216,16 @@ def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, Encod
         raise SettingsError(f"vibration must be auto, on or off, not {vibration!r}")
     method = v["method"]
     gyro = GyroConfig()
-    if v.get("gyro") is not None:
-        if method == "paper":
-            raise SettingsError("--gyro goes with --method gyro, not paper")
-        method = "gyro"
+    if "gyro" in v:  # correct's gyro options (a log of its own, or NAME.gyro.csv beside it)
+        if v["gyro"] is not None:
+            if method == "paper":
+                raise SettingsError("--gyro goes with --method gyro, not paper")
+            method = "gyro"
         offset = v["gyro_offset"]
-        gyro = GyroConfig(path=str(v["gyro"]), layout=v["gyro_layout"], units=v["gyro_units"],
-                          axes=v["gyro_axes"], offset=None if offset is None else offset / 1e3,
-                          focal=v["focal"], fps=v["fps"])
+        gyro = GyroConfig(path=None if v["gyro"] is None else str(v["gyro"]),
+                          layout=v["gyro_layout"], units=v["gyro_units"], axes=v["gyro_axes"],
+                          offset=None if offset is None else offset / 1e3, focal=v["focal"],
+                          fps=v["fps"])
     config = CorrectionConfig(method=method, warp=v["warp"], fill=v["fill"],
                               paper=PaperConfig(BlockMatchConfig(search=v["search"])),
                               dense=DenseConfig(flow_preset=v["flow_preset"],

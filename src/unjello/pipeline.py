@@ -403,6 +403,20 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
     return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback)
 
 
+def _gyro_sidecar(src: Path) -> Path:
+    """Return the gyro log beside ``src``: ``NAME.gyro.csv`` or ``NAME.gyro.txt``.
+
+    This is how ``--method gyro`` without ``--gyro``, and ``batch``, find each clip's log.
+    """
+    base = src.with_suffix("") if src.is_file() else src
+    for ext in (".gyro.csv", ".gyro.txt"):
+        cand = base.with_name(base.name + ext)
+        if cand.is_file():
+            return cand
+    raise SettingsError(f"the gyro method needs a gyro log: pass --gyro FILE or put "
+                        f"{base.name}.gyro.csv beside {src.name}")
+
+
 def _resolve_readout(src: Path, readout: float | str | None, direction: str,
                      log: Callable[[str], None] | None) -> float | str:
     """Turn ``None`` (not given) and ``'auto'`` into a readout, saying where it came from.
@@ -508,6 +522,9 @@ def correct_video(
                                          given.timing.reference)
     else:
         readout = _resolve_readout(src_p, readout, direction, log)
+    if config.method == "gyro" and not config.gyro.path and given is None:
+        config = dataclasses.replace(config, gyro=dataclasses.replace(
+            config.gyro, path=str(_gyro_sidecar(src_p))))
     extras = _Extras(preview, stmap, overwrite, encode, extras_motion)
     if src_p.is_dir():
         traj = _correct_folder(src_p, dst_p, readout, direction, reference, config, progress,
