@@ -389,24 +389,24 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
             ia, sa = int(np.argmax(np.abs(m[0]))), m[0].max() + m[0].min()
             num = sb * gx[:, ib] - sa * gy[:, ia]
             den = ss[:, ib] + ss[:, ia] + 1e-18
-            f = num / den
-            score = np.where((f > fmin) & (f < fmax), num ** 2 / (den * energy), 0.0)
+            focal_at = num / den
+            score = np.where((focal_at > fmin) & (focal_at < fmax),
+                             num ** 2 / (den * energy), 0.0)
             i = int(np.argmax(score))
             if score[i] > best[0]:
                 best = (float(score[i]), float(offsets[i]), m)
-        coarse = [best[1]]
-        fine = np.arange(-T, T + 1e-9, T / 64)
+        centre, fine = best[1], np.arange(-T, T + 1e-9, T / 64)
         if best[2] is not None:  # the roll axis is the third; its sign is left to the rows
             axes_list = [m for m in axes_list if np.array_equal(m[:2], best[2][:2])]
     else:
-        coarse, fine = [config.offset], np.zeros(1)
+        centre, fine = config.offset, np.zeros(1)
 
     # Fine: every row at its own time, roll included; focal fitted by least squares.
     u_all = rows.flow
     energy = float(np.sum(wgt[:, None] * u_all ** 2)) + 1e-12
     result: tuple[float, np.ndarray, float, float] | None = None
     f0 = config.focal or float(w)
-    for o in coarse[0] + fine:
+    for o in centre + fine:
         th_a, th_b = log.theta(t_a + o), log.theta(t_b + o)
         for m in axes_list:
             f = f0
