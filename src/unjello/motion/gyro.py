@@ -414,8 +414,8 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
                 g, rest = _row_model(th_a, th_b, m, rows.row, cy, f)
                 u = u_all - rest
                 if config.focal is None:
-                    den = float(np.sum(wgt[:, None] * g * g))
-                    f = float(np.sum(wgt[:, None] * u * g)) / den if den > 0 else 0.0
+                    gg = float(np.sum(wgt[:, None] * g * g))
+                    f = float(np.sum(wgt[:, None] * u * g)) / gg if gg > 0 else 0.0
                     if not fmin < f < fmax:
                         break
             if not fmin < f < fmax:
