@@ -147,3 +147,15 @@ def test_real_phone_clip_calibrates_to_its_published_intrinsics(shared_data):
     stamp = np.loadtxt(root / "framestamp.txt")[99]
     assert abs(cal.focal / 573.85 - 1) < 0.06
     assert abs(cal.offset + 0.5 / 30 - stamp) < 1 / 30
+
+
+@pytest.mark.parametrize("frame", [np.full((120, 160), 128.0, np.float32), None])
+def test_footage_without_texture_or_motion_says_what_to_give(frame, scene):
+    """A flat picture, or a camera on a tripod: nothing to calibrate against, one clear error."""
+    img = frame if frame is not None else scene[:120, :160].mean(axis=-1).astype(np.float32)
+    t = np.arange(0, 3, 1 / 400)
+    log = GyroLog(t, np.random.default_rng(0).normal(0, 0.05, (t.size, 3)))
+    method = GyroMethod(SensorTiming(1.0), log, GyroConfig(sync_frames=10), fps=30.0)
+    with pytest.raises(InputError, match="give --gyro-offset"):
+        for i in range(10):
+            method.push(img, float(i))

@@ -350,9 +350,16 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
     ------
     InputError
         When the gyro does not explain the footage's motion (no offset, axes and focal
-        length in a plausible range fit).
+        length in a plausible range fit), or the footage has too little texture or motion
+        to calibrate against.
     """
     h, w = size
+    if rows.row.size < 16:
+        raise InputError("too little texture in the first frames to calibrate the gyro log; "
+                         "give --gyro-offset, --gyro-axes and --focal")
+    if np.sqrt(np.average(np.sum(rows.flow ** 2, axis=1), weights=rows.weight)) < 0.1:
+        raise InputError("the footage hardly moves in its first frames: nothing to calibrate "
+                         "the gyro log against; give --gyro-offset, --gyro-axes and --focal")
     cy = (h - 1) / 2.0
     T, rho = frame_interval, timing.readout
     axes_list = ([axes_matrix(config.axes)] if config.axes != "auto" else _candidate_axes())
