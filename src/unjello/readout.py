@@ -312,7 +312,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
     # wide: the confidence threshold was calibrated with it; at full resolution
     # pan-then-stop scored as low as 0.52.
-    cfg = DenseConfig(finest_scale=1, work_width=640, edge_refine=False)
+    cfg = DenseConfig(finest_scale=1, work_width=640, edge_refine=False, refinement=None)
     pairs, halves = [], []
     for k in range(1, len(grey)):
         bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], cfg, cfg.work_width, two_way=True)

@@ -124,6 +124,15 @@ class DenseConfig:
         DIS finest pyramid level (0 = full resolution). Default: the preset's, except
         that the ``medium`` preset works at full resolution on copies up to 480 px wide,
         so that small frames get flow as fine as large ones (about 320 px across).
+    refinement : int, optional
+        Variational refinement iterations of the ``medium`` preset at each pyramid level
+        (``None``: the preset's 5; the other presets keep theirs). Measured on the
+        research pairs (``benchmarks/pairs.py``, Fastec / Carla dB, DIS ms per flow on
+        480x360): 5 iterations 28.78 / 31.37, 66 ms; 2: 28.75 / 31.49, 51 ms; 1: 28.77 /
+        31.48, 45 ms; 0: 28.80 / 31.23, 30 ms. On the simulated suite
+        (``benchmarks/synthetic.py``) 1 against 5: PSNR within 0.02 dB except the 2 s
+        jello clip (35.09 vs 35.23 dB); displacement error 5-20 % higher (hand shake
+        0.046x vs 0.039x, parallax 0.022x vs 0.019x). :data:`VIBRATION` keeps 5.
     fill_sigma : float
         Where the flow is unreliable, the residual motion is the Gaussian-weighted
         average (this sigma, px) of the reliable residuals around it.
@@ -165,6 +174,7 @@ class DenseConfig:
     history: int = 2
     consistency: float = 10.0
     finest_scale: int | None = None
+    refinement: int | None = 1
     fill_sigma: float = 12.0
     detect_vibration: bool = True
     probe: int = 8
@@ -179,8 +189,11 @@ class DenseConfig:
 #: bend at scanline resolution, and six sinusoids of free frequency (a vibration is a few
 #: of them: with them the 2 s jello clip of ``benchmarks/synthetic.py`` went from 0.182x
 #: to 0.099x of the uncorrected error, the 12-frame one from 0.699x to 0.633x). Costs some
-#: accuracy on parallax (0.049x instead of 0.019x) and a 16-frame look-ahead.
-VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6}
+#: accuracy on parallax (0.049x instead of 0.019x) and a 16-frame look-ahead. The flow
+#: keeps DIS medium's five refinement iterations: with one, the suite's diagonal pan went
+#: from 0.020x to 0.032x and the moving object's background from 0.029x to 0.047x.
+VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
+                             "refinement": None}
 
 # Vibration is detected (:func:`vibration_level`) above this wobble, as a fraction of the
 # frame height, making up at least this share of the non-steady row flow. Measured on 10
@@ -259,7 +272,8 @@ def detect_vibration(halves: Sequence[tuple[tuple[np.ndarray, np.ndarray], ...]]
 
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
-                 max_width: int = 960, finest_scale: int | None = None) -> np.ndarray:
+                 max_width: int = 960, finest_scale: int | None = None,
+                 refinement: int | None = None) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
     Parameters
@@ -273,6 +287,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     finest_scale : int, optional
         DIS finest pyramid level (0 = full resolution); default the preset's, or 0 for
         ``medium`` on (downscaled) frames up to 480 px wide.
+    refinement : int, optional
+        Variational refinement iterations at each pyramid level; default the preset's.
 
     Returns
     -------
@@ -292,6 +308,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     if finest_scale is not None:
         dis.setFinestScale(finest_scale)
+    if refinement is not None:
+        dis.setVariationalRefinementIterations(refinement)
     flow = dis.calc(a8, b8, None)
     if scale < 1.0:
         sx, sy = w / a8.shape[1], h / a8.shape[0]
@@ -786,11 +804,14 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, config: DenseConfig, max_width:
     fwd, fwd_ok : ndarray
         Flow from ``prev`` to ``cur`` and its reliable pixels.
     """
-    bwd = optical_flow(cur, prev, config.flow_preset, max_width, config.finest_scale)
+    refinement = config.refinement if config.flow_preset == "medium" else None
+    bwd = optical_flow(cur, prev, config.flow_preset, max_width, config.finest_scale,
+                       refinement)
     if config.edge_refine:
         bwd = refine_motion_edges(np.asarray(cur, np.float32), np.asarray(prev, np.float32),
                                   bwd)
-    fwd = (optical_flow(prev, cur, config.flow_preset, max_width, config.finest_scale)
+    fwd = (optical_flow(prev, cur, config.flow_preset, max_width, config.finest_scale,
+                        refinement)
            if two_way else invert_flow(bwd))
     return (bwd, _consistent(bwd, fwd, config.consistency),
             fwd, _consistent(fwd, bwd, config.consistency))

@@ -477,8 +477,7 @@ def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: 
 
     def moved(y: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Where pixels (x, row y) at their row's time are at the reference time."""
-        t = t0 + timing.row_times(h, start)[0] * frame_interval  # row 0's time
-        t_rows = t + timing.readout * frame_interval * y / h
+        t_rows = t0 + (start + timing.readout * y / h) * frame_interval
         phi = (th_ref[None] - log.theta(t_rows)) @ cal.axes.T
         hom = k @ Rotation.from_rotvec(phi).as_matrix() @ k_inv  # (n_rows, 3, 3)
         pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
