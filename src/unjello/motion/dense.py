@@ -724,9 +724,11 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     take the flow found ``radii`` px away in one of eight directions, if that flow
     matches the previous frame better over a ``window`` x ``window`` patch (sum of
     absolute differences of the warped previous frame). Measured
-    (``benchmarks/synthetic.py``, 320x240): two-depth parallax 0.019x -> 0.012x of the
-    uncorrected error, a moving object's background 0.016x -> 0.011x; research pairs
-    Fastec 28.78 -> 28.73 dB, Carla 31.37 -> 31.45 dB. A 3x3 patch was better on the
+    (``benchmarks/synthetic.py``, 320x240): two-depth parallax 0.022x -> 0.014x of the
+    uncorrected error, a moving object's background 0.019x -> 0.012x; research pairs
+    Fastec 28.76 -> 28.74 dB, Carla 31.48 -> 31.49 dB (with five DIS refinement
+    iterations: 0.019x -> 0.012x, 0.016x -> 0.011x, 28.78 -> 28.73, 31.37 -> 31.45 dB).
+    A 3x3 patch was better on the
     suite (0.010x, 0.009x) and worse on the pairs (28.70, 31.39); radii 3, 6 and 10 px
     scored as 3 and 8 at 1.7x the cost. Cost: nothing where there are no boundaries,
     22 ms on a 480x270 copy with boundaries everywhere (synthetic); the Carla town
