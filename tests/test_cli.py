@@ -240,3 +240,31 @@ def test_gyro_mistakes_are_one_line(tmp_path, clip, args, message):
     line = _clean_failure(run("correct", clip, "-o", tmp_path / "out.mp4", *args))
     assert message in line
     assert not (tmp_path / "out.mp4").exists()
+
+
+def test_correct_a_video_with_its_gyro_log_keeps_frames_and_audio(tmp_path, scene):
+    """A video and a sidecar log: its frame rate from the container, frames and audio kept."""
+    import numpy as np
+
+    from unjello.simulate import Motion, gyro_samples, simulate
+    from unjello.timing import SensorTiming
+
+    from .clips import audio_packets, video_pts
+
+    src = tmp_path / "pan.mp4"
+    pts = make_clip(src, scene, n=32, fps=25, speed=6.0)
+    t, rates = gyro_samples(Motion("pan", fps=25.0, speed=6.0), 1500.0, 32 / 25, start=3.0)
+    (tmp_path / "pan.gyro.csv").write_text("\n".join(
+        f"{ti:.6f},{a:.7f},{b:.7f},{c:.7f}" for ti, (a, b, c) in zip(t, rates, strict=True)))
+    out = tmp_path / "out.mp4"
+    res = run("correct", src, "-o", out, "--method", "gyro", "--json",
+              "--motion-out", tmp_path / "m.json")
+    assert res.returncode == 0, res.stderr
+    assert video_pts(out) == pts
+    assert audio_packets(out) == audio_packets(src)
+    sim = list(simulate(scene, Motion("pan", speed=6.0), SensorTiming(1.0), 32, size=(192, 144)))
+    motion = json.loads((tmp_path / "m.json").read_text())
+    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
+                   for f, s in zip(motion["frames"], sim, strict=True)])
+    unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+    assert err < 0.1 * unc

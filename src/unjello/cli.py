@@ -187,7 +187,8 @@ def _gyro_options(f: Callable) -> Callable:
                           "footage's motion."),
         click.option("--fps", type=click.FloatRange(min=0, min_open=True), default=30.0,
                      show_default=True,
-                     help="Frame rate of a folder of frames (a video states its own)."),
+                     help="Frame rate of a folder of frames, for the gyro method (a video "
+                          "states its own)."),
     ]):
         f = opt(f)
     return f
