@@ -110,3 +110,20 @@ def test_backward_maps_zero_motion():
     fm = FrameMotion(0, 0.0, np.zeros((10, 2)), np.zeros((10, 2)))
     mx, my = backward_maps(fm, 12)
     assert np.allclose(mx, np.arange(12)[None]) and np.allclose(my, np.arange(10)[:, None])
+
+
+@pytest.mark.parametrize("grid", [(144, 192), (36, 48), (18, 24)])
+def test_a_field_on_a_coarse_grid_is_stored_every_8_frame_pixels(grid):
+    """A field on the frame's grid, a working copy's, or one already every 8 px: the JSON
+    keeps one sample per 8 frame pixels (not per 8 samples of a coarse grid)."""
+    from unjello.trajectory import FrameMotion
+
+    hf, wf = grid
+    yy, xx = np.mgrid[0:hf, 0:wf].astype(np.float32)
+    field = np.stack([0.05 * xx * 192 / wf, np.sin(yy * 144 / hf / 20)], axis=-1)
+    fm = FrameMotion(0, 0.0, np.zeros((144, 2)), np.zeros((144, 2)), field=field)
+    d = json.loads(json.dumps(fm.to_dict()))
+    assert np.asarray(d["field"]).shape == (18, 24, 2)
+    back = FrameMotion.from_dict(d).field
+    assert back.shape == field.shape
+    assert np.abs(back - field)[2:-2, 2:-2].max() < 0.15

@@ -392,11 +392,13 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
 @click.option("--exposure", type=click.FloatRange(0, 1), default=0.0, show_default=True,
               help="Exposure time as a fraction of the frame interval (motion blur).")
 @click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True)
+@click.option("--gyro-out", type=click.Path(path_type=Path),
+              help="Also write a gyro log of the motion (CSV, 400 Hz; for --method gyro).")
 @click.option("-y", "--overwrite", is_flag=True)
 def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None, motion: str,
              readout: str | None, direction: str, reference: str, frames: int, fps: float | None,
              size: str | None, speed: float, amplitude: float, exposure: float, crf: int,
-             overwrite: bool) -> None:
+             gyro_out: Path | None, overwrite: bool) -> None:
     """Render a rolling-shutter clip and its truth from an image or a GS video."""
     from .errors import SettingsError
     from .pipeline import simulate_clip
@@ -413,7 +415,7 @@ def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None,
     simulate_clip(source, output, truth, motion=motion, timing=timing, frames=frames, fps=fps,
                   size=wh, speed=speed, amplitude=amplitude, exposure=exposure,
                   overwrite=overwrite, truth_motion=truth_motion,
-                  encode=EncodeOptions(crf=crf))
+                  encode=EncodeOptions(crf=crf), gyro_out=gyro_out)
     click.echo(f"wrote {output} and {truth}", err=True)
 
 

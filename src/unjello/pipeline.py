@@ -891,7 +891,8 @@ def simulate_clip(source: str | os.PathLike, rolling_out: str | os.PathLike,
                   fps: float | None = None, size: tuple[int, int] | None = None,
                   speed: float = 8.0, amplitude: float = 1.0, exposure: float = 0.0,
                   overwrite: bool = False, truth_motion: str | os.PathLike | None = None,
-                  encode: EncodeOptions = EncodeOptions()) -> Trajectory:
+                  encode: EncodeOptions = EncodeOptions(),
+                  gyro_out: str | os.PathLike | None = None) -> Trajectory:
     """Render a rolling-shutter clip and its global-shutter truth to files.
 
     Parameters
@@ -918,13 +919,20 @@ def simulate_clip(source: str | os.PathLike, rolling_out: str | os.PathLike,
         Where to write the true trajectory (default ``<truth_out>.motion.json``).
     encode : EncodeOptions
         Encoder settings of video outputs.
+    gyro_out : path-like, optional
+        Also write a 400 Hz gyroscope log of the motion (CSV: time in s from the first
+        frame, then rad/s about x, y, z), as from a lens of 8 times the frame's width
+        (:func:`unjello.simulate.gyro_samples`).
 
     Returns
     -------
     Trajectory
         The true per-scanline motion.
     """
-    from .simulate import motion_from_spec, simulate
+    from .simulate import gyro_samples, motion_from_spec, simulate
+
+    if gyro_out is not None and Path(gyro_out).exists() and not overwrite:
+        raise OutputError(f"{gyro_out} exists; pass -y to overwrite it")
 
     scene, src_fps = read_source(source)
     fps = float(fps or src_fps or 30.0)
@@ -942,6 +950,12 @@ def simulate_clip(source: str | os.PathLike, rolling_out: str | os.PathLike,
             traj.frames.append(sf.motion)
     assert traj is not None
     traj.save(truth_motion)
+    if gyro_out is not None:
+        t, rates = gyro_samples(mot, 8.0 * traj.size[0], frames / fps)
+        tmp = _temp_path(Path(gyro_out))
+        np.savetxt(tmp, np.column_stack([t, rates]), delimiter=",", fmt="%.9g",
+                   header="t,x,y,z", comments="")
+        _replace(tmp, Path(gyro_out))
     return traj
 
 

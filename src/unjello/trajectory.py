@@ -95,8 +95,9 @@ class FrameMotion:
     def to_dict(self) -> dict:
         """Return a JSON-serialisable dict of this frame.
 
-        A per-pixel field is stored every ``FIELD_STEP`` pixels (``field``, with its full
-        ``field_shape``); reading it back interpolates it bilinearly.
+        A per-pixel field is stored every ``FIELD_STEP`` pixels of the frame (``field``,
+        with its own ``field_shape``; a field sampled more coarsely already, such as the
+        gyro method's, is stored as it is); reading it back interpolates it bilinearly.
         """
         d = {
             "index": int(self.index),
@@ -109,9 +110,13 @@ class FrameMotion:
         }
         if self.field is not None:
             h, w = self.field.shape[:2]
-            small = cv2.resize(self.field.astype(np.float32),
-                               (max(1, -(-w // FIELD_STEP)), max(1, -(-h // FIELD_STEP))),
-                               interpolation=cv2.INTER_AREA)
+            # The field's grid may be coarser than the frame (the dense method's working
+            # copy): FIELD_STEP frame pixels are this many of its samples.
+            step = FIELD_STEP * h / self.displacement.shape[0]
+            small = (cv2.resize(self.field.astype(np.float32),
+                                (max(1, round(w / step)), max(1, round(h / step))),
+                                interpolation=cv2.INTER_AREA)
+                     if step > 1 else np.asarray(self.field, np.float32))
             d["field_shape"] = [h, w]
             d["field"] = np.round(small, 3).tolist()
         return d

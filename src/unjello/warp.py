@@ -358,10 +358,22 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
     sx, sy = np.float32(width / w), np.float32(height / h)
     # Linear interpolation commutes with the affine change of units: apply it first,
     # on the small maps.
-    mx = (map_x + np.float32(0.5)) * sx - np.float32(0.5)
-    my = (map_y + np.float32(0.5)) * sy - np.float32(0.5)
-    return (cv2.resize(mx, (width, height), interpolation=cv2.INTER_LINEAR),
-            cv2.resize(my, (width, height), interpolation=cv2.INTER_LINEAR))
+    mx = cv2.resize((map_x + np.float32(0.5)) * sx - np.float32(0.5), (width, height),
+                    interpolation=cv2.INTER_LINEAR)
+    my = cv2.resize((map_y + np.float32(0.5)) * sy - np.float32(0.5), (width, height),
+                    interpolation=cv2.INTER_LINEAR)
+    # Beyond the outermost sample centres (half a sample from each edge) cv2.resize holds
+    # the value: there the source position would stop moving and smear the edge over
+    # half a sample (4 px for a field every 8 px). Hold the displacement instead.
+    for m, n, size, scale, axis in ((mx, w, width, sx, 1), (my, h, height, sy, 0)):
+        coarse = (np.arange(size, dtype=np.float32) + 0.5) / scale - 0.5
+        beyond = (coarse - np.clip(coarse, 0, n - 1)) * scale
+        edge = np.flatnonzero(beyond)
+        if axis == 1:
+            m[:, edge] += beyond[edge]
+        else:
+            m[edge] += beyond[edge, None]
+    return mx, my
 
 
 def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -408,8 +420,12 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
     h, w = mx.shape
     test = coarse if coarse is not None else maps
     th, tw = test[0].shape
-    inside = cv2.bitwise_and(cv2.inRange(test[0], -0.5, tw - 0.5),
-                             cv2.inRange(test[1], -0.5, th - 0.5))
+    # A coarse sample's pixels reach up to half a sample beyond it (:func:`resize_maps`
+    # carries the displacement to the frame's edge): only samples at least half a sample
+    # inside are surely inside.
+    lo, hi = (-0.5, 0.5) if coarse is None else (0.0, 1.0)
+    inside = cv2.bitwise_and(cv2.inRange(test[0], lo, tw - hi),
+                             cv2.inRange(test[1], lo, th - hi))
     if cv2.countNonZero(inside) == th * tw:
         return []
     outside = cv2.bitwise_not(inside)

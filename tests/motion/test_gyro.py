@@ -59,7 +59,7 @@ def test_roll_is_a_rotation_of_each_row_about_the_centre():
     log = GyroLog(t, np.tile([0.0, 0.0, roll], (t.size, 1)))
     cal = GyroCalibration(np.eye(3), offset=0.0, focal=200.0)
     timing = SensorTiming(1.0)
-    field, disp, _ = gyro_field(log, cal, timing, 0.0, 1 / 30, (h, w), step=1)
+    field, disp, _, around = gyro_field(log, cal, timing, 0.0, 1 / 30, (h, w), step=1)
     c = np.array([(w - 1) / 2, (h - 1) / 2])
     for y in (0, 30, 90, 119):
         angle = roll * (timing.reference_time(h) - y / h) / 30  # reference minus row time
@@ -68,6 +68,12 @@ def test_roll_is_a_rotation_of_each_row_about_the_centre():
         p = (s - c) @ rot.T + c
         assert np.allclose(field[y], s - p, atol=1e-3)
     assert np.abs(disp[60]).max() < 0.05  # the middle row is the reference
+    # One frame later every pixel has turned by the roll over a frame interval.
+    (k, later), = [n for n in around if n[0] == 1]
+    angle = roll / 30
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    s = np.stack(np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float)), axis=-1)
+    assert np.allclose(later, (s - c) @ rot.T + c - s, atol=1e-3)
 
 
 def _shake_clip(n=40, size=(320, 240), readout=0.9):

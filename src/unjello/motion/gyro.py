@@ -269,7 +269,8 @@ class GyroCalibration:
 
     def describe(self) -> str:
         """One line: axes, offset, focal length and agreement."""
-        text = (f"gyro axes {_axes_spec(self.axes)}, offset {1000 * self.offset:.1f} ms, "
+        ms = round(1000 * self.offset, 1) + 0.0  # no "-0.0"
+        text = (f"gyro axes {_axes_spec(self.axes)}, offset {ms:.1f} ms, "
                 f"focal {self.focal:.0f} px")
         if np.isfinite(self.agreement):
             text += f", explains {100 * self.agreement:.0f}% of the row motion"
@@ -438,9 +439,26 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
                            agreement=result[3])
 
 
+def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: np.ndarray,
+             t_to: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Where pixels ``(x, row y)`` seen at ``t_from[row]`` are seen at ``t_to[row]``.
+
+    One homography ``K R K^-1`` per row, ``R`` the rotation by ``M (Theta(t_to) -
+    Theta(t_from))``. Returns ``(len(y), len(x), 2)``.
+    """
+    h, w = size
+    f = cal.focal
+    k = np.array([[f, 0, (w - 1) / 2.0], [0, f, (h - 1) / 2.0], [0, 0, 1.0]])
+    phi = (log.theta(t_to) - log.theta(t_from)) @ cal.axes.T
+    hom = k @ Rotation.from_rotvec(phi).as_matrix() @ np.linalg.inv(k)  # (rows, 3, 3)
+    pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
+    q = np.einsum("rij,rcj->rci", hom, pts)
+    return q[..., :2] / q[..., 2:3]
+
+
 def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: float,
                frame_interval: float, size: tuple[int, int], step: int = _STEP
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, np.ndarray], ...]]:
     """Per-pixel displacement of one frame: a homography per scanline (module notes).
 
     Parameters
@@ -466,38 +484,37 @@ def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: 
         ``s - p`` at the centre column of every scanline (eq. 26's per-scanline value).
     velocity : ndarray of shape (h, 2)
         Image velocity at the centre column, pixels per frame interval (first order).
+    neighbours : tuple of (int, ndarray)
+        Where each grid pixel is seen one frame earlier (-1) and later (1), as a flow in
+        pixels of the grid (:attr:`unjello.trajectory.FrameMotion.neighbours`: the warp
+        takes what the frame's own lines never saw from there). The rotation over one
+        frame interval at the pixel's row time; the row it lands on is read a little
+        earlier or later, a second-order effect.
     """
     h, w = size
-    f = cal.focal
-    k = np.array([[f, 0, (w - 1) / 2.0], [0, f, (h - 1) / 2.0], [0, 0, 1.0]])
-    k_inv = np.linalg.inv(k)
-    t0 = cal.offset
-    t_ref = t0 + timing.reference_time(h, start) * frame_interval
-    th_ref = log.theta(np.array([t_ref]))[0]
-
-    def moved(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """Where pixels (x, row y) at their row's time are at the reference time."""
-        t_rows = t0 + (start + timing.readout * y / h) * frame_interval
-        phi = (th_ref[None] - log.theta(t_rows)) @ cal.axes.T
-        hom = k @ Rotation.from_rotvec(phi).as_matrix() @ k_inv  # (n_rows, 3, 3)
-        pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
-        q = np.einsum("rij,rcj->rci", hom, pts)
-        return q[..., :2] / q[..., 2:3]
-
+    t0, T = cal.offset, frame_interval
+    t_ref = np.array([t0 + timing.reference_time(h, start) * T])
     hf, wf = -(-h // step), -(-w // step)
     gy = (np.arange(hf) + 0.5) * h / hf - 0.5
     gx = (np.arange(wf) + 0.5) * w / wf - 0.5
     src = np.stack(np.meshgrid(gx, gy), axis=-1)
-    fld = (src - moved(gy, gx)).astype(np.float32)
+    t_grid = t0 + (start + timing.readout * gy / h) * T
+    fld = (src - _rotated(log, cal, size, t_grid, t_ref, gx, gy)).astype(np.float32)
+    to_grid = np.array([wf / w, hf / h])
+    neighbours = tuple(
+        (k, ((_rotated(log, cal, size, t_grid, t_grid + k * T, gx, gy) - src) * to_grid)
+         .astype(np.float32)) for k in (-1, 1))
     ys = np.arange(h, dtype=np.float64)
     cx = np.array([(w - 1) / 2.0])
-    disp = (np.stack([np.broadcast_to(cx, (h,)), ys], axis=-1) - moved(ys, cx)[:, 0])
-    t_rows = t0 + timing.row_times(h, start) * frame_interval
-    om = log.rate_at(t_rows) @ cal.axes.T * frame_interval  # rad per frame interval
+    t_rows = t0 + (start + timing.readout * ys / h) * T
+    disp = np.stack([np.broadcast_to(cx, (h,)), ys], axis=-1) - _rotated(
+        log, cal, size, t_rows, t_ref, cx, ys)[:, 0]
+    om = log.rate_at(t_rows) @ cal.axes.T * T  # rad per frame interval
+    f = cal.focal
     r2 = ((ys - (h - 1) / 2.0) / f) ** 2
     vel = np.stack([f * om[:, 1] - om[:, 2] * (ys - (h - 1) / 2.0),
                     -f * om[:, 0] * (1 + r2)], axis=-1)
-    return fld, disp, vel
+    return fld, disp, vel, neighbours
 
 
 class GyroMethod:
@@ -584,15 +601,15 @@ class GyroMethod:
         last = self.log.time[-1] - cal.offset
         while self._next < len(self._starts):
             start = self._starts[self._next]
-            fld, disp, vel = gyro_field(self.log, cal, self.timing, start,
-                                        self.frame_interval, self._size)
+            fld, disp, vel, around = gyro_field(self.log, cal, self.timing, start,
+                                                self.frame_interval, self._size)
             t = start * self.frame_interval
             inside = first <= t and t + self.frame_interval <= last
             notes = [cal.describe()] if self._next == 0 else []
             if not inside:
                 notes.append("outside the gyro log: no rotation known")
             out.append(FrameMotion(self._next, start, disp, vel, ok=inside,
-                                   note="; ".join(notes), field=fld))
+                                   note="; ".join(notes), field=fld, neighbours=around))
             self._next += 1
         return out
 
