@@ -452,7 +452,7 @@ def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: 
     phi = (log.theta(t_to) - log.theta(t_from)) @ cal.axes.T
     hom = k @ Rotation.from_rotvec(phi).as_matrix() @ np.linalg.inv(k)  # (rows, 3, 3)
     pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
-    q = np.einsum("rij,rcj->rci", hom, pts)
+    q = pts @ hom.transpose(0, 2, 1)  # each row's points through its homography
     return q[..., :2] / q[..., 2:3]
 
 
