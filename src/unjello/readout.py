@@ -311,8 +311,9 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     h = grey[0].shape[0]
     # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
     # wide: the confidence threshold was calibrated with it; at full resolution
-    # pan-then-stop scored as low as 0.52.
-    cfg = DenseConfig(finest_scale=1, work_width=640, edge_refine=False, refinement=None)
+    # pan-then-stop scored as low as 0.52. (Its flow settings are kept as calibrated.)
+    cfg = DenseConfig(finest_scale=1, work_width=640, edge_refine=False, refinement=None,
+                      consistency=10.0)
     pairs, halves = [], []
     for k in range(1, len(grey)):
         bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], cfg, cfg.work_width, two_way=True)
