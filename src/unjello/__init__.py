@@ -18,6 +18,7 @@ from .errors import InputError, MissingExtraError, OutputError, SettingsError, U
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.global_motion import BlockMatchConfig
+from .motion.gyro import GyroConfig, GyroLog, GyroMethod, read_gyro
 from .motion.paper import PaperConfig, PaperMethod
 from .motion.refine import RefineConfig
 from .pipeline import (
@@ -31,7 +32,7 @@ from .pipeline import (
     simulate_clip,
 )
 from .readout import ReadoutEstimate, estimate_readout, readout_from_flicker
-from .simulate import Motion, simulate
+from .simulate import Motion, gyro_samples, simulate
 from .timing import SensorTiming, parse_readout
 from .trajectory import FrameMotion, Trajectory
 
@@ -44,6 +45,9 @@ __all__ = [
     "DenseMethod",
     "EncodeOptions",
     "FrameMotion",
+    "GyroConfig",
+    "GyroLog",
+    "GyroMethod",
     "InputError",
     "MissingExtraError",
     "Motion",
@@ -58,6 +62,8 @@ __all__ = [
     "UnjelloError",
     "correct",
     "correct_frames",
+    "gyro_samples",
+    "read_gyro",
     "correct_video",
     "estimate_readout",
     "estimate_readout_file",

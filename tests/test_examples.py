@@ -1,0 +1,20 @@
+"""The runnable examples run, and say what they promise."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.mark.parametrize("name", ["correct_simulated_clip.py", "correct_with_gyro.py"])
+def test_example_corrects_its_clip(name):
+    res = subprocess.run([sys.executable, str(EXAMPLES / name)], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    before, after = (float(v) for v in re.search(
+        r"([\d.]+) px before, ([\d.]+) px after", res.stdout).groups())
+    assert after < 0.1 * before
