@@ -57,3 +57,24 @@ def test_batch_cli_exit_code(clips, tmp_path):
     assert res.returncode == 1
     assert "3 corrected, 0 skipped, 1 failed" in res.stderr
     assert "Traceback" not in res.stderr
+
+
+def test_batch_with_the_gyro_method_finds_each_clips_log(tmp_path, scene):
+    """`batch --method gyro`: a clip with NAME.gyro.csv beside it is corrected, one
+    without is reported as failed, with the fix in its message."""
+    from unjello.simulate import Motion, gyro_samples
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("logged", "bare"):
+        make_clip(src / f"{name}.mp4", scene, n=32, fps=25, size=(160, 120), audio=False)
+    t, rates = gyro_samples(Motion("pan", fps=25.0, speed=6.0), 1280.0, 32 / 25)
+    (src / "logged.gyro.csv").write_text("\n".join(
+        f"{ti:.6f},{a:.7f},{b:.7f},{c:.7f}" for ti, (a, b, c) in zip(t, rates, strict=True)))
+    res = run("batch", src, "-o", tmp_path / "out", "--method", "gyro")
+    assert res.returncode == 1
+    rows = {json.loads(x)["input"].rsplit("/", 1)[1]: json.loads(x) for x in
+            (tmp_path / "out" / "unjello-batch.jsonl").read_text().splitlines()}
+    assert rows["logged.mp4"]["status"] == "ok" and rows["logged.mp4"]["frames"] == 32
+    assert rows["bare.mp4"]["status"] == "failed"
+    assert "bare.gyro.csv" in rows["bare.mp4"]["error"]
