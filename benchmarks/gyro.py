@@ -32,17 +32,12 @@ from skimage import data
 
 from unjello.io.frames import list_frames, read_image
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import GyroConfig, axes_matrix
+from unjello.motion.gyro import GyroConfig, axes_matrix, write_gyro
 from unjello.pipeline import CorrectionConfig, correct_frames
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
 
 PHONE = Path(__file__).resolve().parents[2] / "shared" / "data" / "sequences" / "phone_gyro"
-
-
-def write_log(path: Path, t: np.ndarray, rates: np.ndarray) -> None:
-    """Write the log as CSV: time (s), then the three rates."""
-    np.savetxt(path, np.column_stack([t, rates]), delimiter=",", header="t,x,y,z")
 
 
 def simulated(case: str, motion: Motion, work: Path, n: int = 60,
@@ -53,7 +48,7 @@ def simulated(case: str, motion: Motion, work: Path, n: int = 60,
     t, rates = gyro_samples(motion, focal, n / motion.fps, axes=axes_matrix("yZx"),
                             start=12.345, noise=0.002)
     log = work / f"{case}.csv"
-    write_log(log, t, rates)
+    write_gyro(log, t, rates)
     frames = [s.rolling for s in sim]
     unc = np.mean([displacement_error(None, s.motion) for s in sim])
     row = [f"{case:10} {unc:9.3f}"]
@@ -77,7 +72,7 @@ def stage_speed(work: Path, n: int = 90) -> None:
     frames = [s.rolling for s in simulate(data.astronaut(), motion, timing, n, size=size)]
     t, rates = gyro_samples(motion, 8.0 * size[0], n / 30)
     log = work / "hd.csv"
-    write_log(log, t, rates)
+    write_gyro(log, t, rates)
     known = GyroConfig(path=str(log), axes="XYZ", offset=0.0, focal=8.0 * size[0])
     for label, cfg in (("calibrated on its first 60 frames", GyroConfig(path=str(log))),
                        ("calibration given", known)):

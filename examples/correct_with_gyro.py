@@ -23,7 +23,7 @@ t, rates = unjello.gyro_samples(motion, focal=2560.0, duration=45 / 30,
                                 axes=axes_matrix("Zxy"), start=12.3, noise=0.002)
 with tempfile.TemporaryDirectory() as tmp:
     log = Path(tmp) / "clip.gyro.csv"
-    np.savetxt(log, np.column_stack([t, rates]), delimiter=",", header="t,x,y,z")
+    unjello.write_gyro(log, t, rates)
     config = unjello.CorrectionConfig(method="gyro", gyro=unjello.GyroConfig(path=str(log)))
     corrected, trajectory = unjello.correct_frames([f.rolling for f in clip], timing,
                                                    config=config)

@@ -18,7 +18,7 @@ from .errors import InputError, MissingExtraError, OutputError, SettingsError, U
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.global_motion import BlockMatchConfig
-from .motion.gyro import GyroConfig, GyroLog, GyroMethod, read_gyro
+from .motion.gyro import GyroConfig, GyroLog, GyroMethod, read_gyro, write_gyro
 from .motion.paper import PaperConfig, PaperMethod
 from .motion.refine import RefineConfig
 from .pipeline import (
@@ -64,6 +64,7 @@ __all__ = [
     "correct_frames",
     "gyro_samples",
     "read_gyro",
+    "write_gyro",
     "correct_video",
     "estimate_readout",
     "estimate_readout_file",

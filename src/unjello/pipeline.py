@@ -32,7 +32,7 @@ from .io.video import (
     VideoWriter,
 )
 from .motion.dense import DenseConfig, DenseMethod
-from .motion.gyro import GyroConfig, GyroMethod, load_method
+from .motion.gyro import GyroConfig, GyroMethod, load_method, write_gyro
 from .motion.paper import PaperConfig, PaperMethod
 from .readout import ReadoutEstimate, estimate_readout, stated_readout
 from .timing import SensorTiming, from_top_bottom, parse_readout, to_top_bottom
@@ -953,8 +953,7 @@ def simulate_clip(source: str | os.PathLike, rolling_out: str | os.PathLike,
     if gyro_out is not None:
         t, rates = gyro_samples(mot, 8.0 * traj.size[0], frames / fps)
         tmp = _temp_path(Path(gyro_out))
-        np.savetxt(tmp, np.column_stack([t, rates]), delimiter=",", fmt="%.9g",
-                   header="t,x,y,z", comments="")
+        write_gyro(tmp, t, rates)
         _replace(tmp, Path(gyro_out))
     return traj
 

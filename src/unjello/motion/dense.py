@@ -52,7 +52,7 @@ from ..trajectory import FrameMotion
 from ..warp import pixel_grid
 
 __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical_flow",
-           "solve_camera_trajectory", "row_flows", "half_row_flows", "flow_pair",
+           "solve_camera_trajectory", "row_flows", "half_row_flows", "flow_pair", "landing",
            "refine_motion_edges", "invert_flow", "vibration_level", "detect_vibration",
            "sinusoid_pursuit"]
 
@@ -324,7 +324,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     return flow
 
 
-def _landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where each pixel's flow lands (x, y), and whether that is inside the frame."""
     h, w = flow.shape[:2]
     gx = np.arange(w, dtype=np.float32)[None, :] + flow[..., 0]
@@ -334,7 +334,7 @@ def _landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     """Pixels whose flow lands inside the frame and comes back within ``tol`` px."""
-    gx, gy, inside = _landing(fwd)
+    gx, gy, inside = landing(fwd)
     back = cv2.remap(bwd, gx, gy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     err = np.hypot(fwd[..., 0] + back[..., 0], fwd[..., 1] + back[..., 1])
     return inside & (err <= tol)
@@ -971,7 +971,7 @@ class DenseMethod:
             else:  # rows only: one flow, its robust row summary rejects the outliers
                 cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
                                        self.config.finest_scale)
-                cur.bwd_ok = _landing(cur.bwd)[2]  # lands inside the frame
+                cur.bwd_ok = landing(cur.bwd)[2]  # lands inside the frame
             self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self._decided:  # rows of each half, for the vibration test
                 self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok))

@@ -41,11 +41,10 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError, SettingsError
 from ..timing import SensorTiming
-from ..trajectory import FrameMotion
-from ..warp import pixel_grid
-from .dense import optical_flow, row_flows
+from ..trajectory import FIELD_STEP, FrameMotion
+from .dense import landing, optical_flow, row_flows
 
-__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "read_gyro",
+__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "read_gyro", "write_gyro",
            "axes_matrix", "calibrate", "gyro_field"]
 
 # Flow for the calibration is computed on copies at most this wide (DIS medium at its
@@ -56,8 +55,6 @@ _SYNC_WIDTH = 320
 # (parallax, the dashboard) 0.61; random logs 0.38-0.48 on 12 frames, below 0.2 on 30 and
 # 60 (the search over offsets and axes fits a short clip's few pairs by chance).
 _AGREEMENT = 0.3
-# The per-pixel field is sampled every this many pixels (a homography per row is smooth).
-_STEP = 8
 
 
 @dataclass(frozen=True)
@@ -174,6 +171,12 @@ def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> Gyr
     scale = next(s for limit, s in ((0.05, 1.0), (50.0, 1e-3), (5e4, 1e-6), (np.inf, 1e-9))
                  if dt < limit)
     return GyroLog(t * scale, rate)
+
+
+def write_gyro(path: str | Path, time: np.ndarray, rate: np.ndarray) -> None:
+    """Write a log :func:`read_gyro` reads: CSV with a ``t,x,y,z`` header, seconds, rad/s."""
+    np.savetxt(path, np.column_stack([time, rate]), delimiter=",", fmt="%.9g",
+               header="t,x,y,z", comments="")
 
 
 def axes_matrix(spec: str) -> np.ndarray:
@@ -457,7 +460,7 @@ def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: 
 
 
 def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: float,
-               frame_interval: float, size: tuple[int, int], step: int = _STEP
+               frame_interval: float, size: tuple[int, int], step: int = FIELD_STEP
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[tuple[int, np.ndarray], ...]]:
     """Per-pixel displacement of one frame: a homography per scanline (module notes).
 
@@ -474,7 +477,8 @@ def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: 
     size : (int, int)
         Frame height and width.
     step : int
-        Sampling of the field, pixels.
+        Sampling of the field, pixels (a homography per row is smooth: the motion JSON's
+        own sampling).
 
     Returns
     -------
@@ -575,10 +579,7 @@ class GyroMethod:
             return
         prev, cur = self._small[-2], self._small[-1]
         flow = optical_flow(cur, prev, "medium", 0, 0)
-        gx, gy = pixel_grid(size[1], size[0])
-        gx, gy = gx + flow[..., 0], gy + flow[..., 1]
-        ok = (gx >= 0) & (gx <= size[0] - 1) & (gy >= 0) & (gy <= size[1] - 1)  # lands inside
-        y, med, wgt = row_flows(flow, ok)
+        y, med, wgt = row_flows(flow, landing(flow)[2])  # pixels whose flow lands inside
         sx, sy = w / size[0], h / size[1]
         self._rows.append((len(self._small) - 1, (y + 0.5) * sy - 0.5,
                            med * np.array([sx, sy]), wgt))
