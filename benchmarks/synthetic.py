@@ -38,6 +38,8 @@ CASES = {
     # second): resolving it takes about a second of footage on each side.
     "drone jello, 2 s clip": (Motion("jello"), "planar", 0.0, False, 60),
     "two-depth parallax": (Motion("pan", speed=5.0), "parallax", 0.0, False),
+    # The moving object's clip without the object: what its background should score.
+    "pan, 5 px/frame (no object)": (Motion("pan", speed=5.0), "planar", 0.0, False),
     "moving object (background)": (Motion("pan", speed=5.0), "object", 0.0, False),
     "pan + blur, noise, CRF 26": (Motion("pan", speed=7.3), "planar", 0.3, True),
 }
