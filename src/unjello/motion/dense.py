@@ -53,8 +53,8 @@ from ..warp import pixel_grid
 
 __all__ = ["DenseConfig", "DenseMethod", "VIBRATION", "CameraSolution", "optical_flow",
            "solve_camera_trajectory", "row_flows", "half_row_flows", "flow_pair", "landing",
-           "refine_motion_edges", "invert_flow", "vibration_level", "detect_vibration",
-           "sinusoid_pursuit"]
+           "refine_motion_edges", "snap_to_global", "invert_flow", "vibration_level",
+           "detect_vibration", "sinusoid_pursuit"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
@@ -163,6 +163,11 @@ class DenseConfig:
         error on parallax and moving objects, the same PSNR, up to a third more time on
         busy scenes (Carla town sequence, 640x448: 0.15 -> 0.20 s a frame), hence
         off by default (``--edge-refine``).
+    snap_window : int
+        Pixels whose neighbourhood the frame's global (projective) motion explains as well
+        as their own flow take the global motion (:func:`snap_to_global`; this patch side
+        in px, 0: off). It undoes the flow's smoothing across the edges of moving objects
+        and its noise on the rest of the scene.
     per_pixel : bool
         Model each pixel's residual motion (parallax, moving objects) on top of the
         camera trajectory. False: the camera trajectory and row velocity alone, one
@@ -186,6 +191,7 @@ class DenseConfig:
     sinusoids: int = 0
     advect: bool = True
     edge_refine: bool = False
+    snap_window: int = 9
     per_pixel: bool = True
 
 
@@ -870,6 +876,56 @@ def _projective_flow(coef: np.ndarray, x: np.ndarray, y: np.ndarray, size: tuple
                     axis=-1)
 
 
+def _fit_projective(values: np.ndarray, ok: np.ndarray, x: np.ndarray, y: np.ndarray,
+                    stride: int = 8) -> np.ndarray | None:
+    """Robust fit of the projective flow (:func:`_projective_flow`) to ``values`` at ``(x, y)``.
+
+    Iteratively reweighted least squares (four rounds, residuals beyond 1.5 times their
+    median down-weighted: independently moving objects and parallax are outliers) over
+    every ``stride``-th reliable sample of the grid.
+
+    Parameters
+    ----------
+    values : ndarray of shape (h, w, 2)
+        Vectors to fit (a flow, a velocity).
+    ok : ndarray of bool, shape (h, w)
+        Samples that may be used.
+    x, y : ndarray of shape (h, w)
+        Where each vector belongs.
+    stride : int
+        Sampling step of the grid.
+
+    Returns
+    -------
+    ndarray of shape (8,) or None
+        The coefficients; None with fewer than 32 usable samples.
+    """
+    h, w = values.shape[:2]
+    sub = (slice(None, None, stride), slice(None, None, stride))
+    use = ok[sub].ravel()
+    n = int(use.sum())
+    if n < 32:
+        return None
+    # The model's columns (see :func:`_projective_flow`) at the samples, in its units.
+    scale = 1.0 / max(h, w)
+    xs = (x[sub].ravel()[use].astype(np.float64) - 0.5 * w) * scale
+    ys = (y[sub].ravel()[use].astype(np.float64) - 0.5 * h) * scale
+    one, zero = np.ones(n), np.zeros(n)
+    a = np.stack([np.stack([one, xs, ys, zero, zero, zero, xs * xs, xs * ys], axis=1),
+                  np.stack([zero, zero, zero, one, xs, ys, xs * ys, ys * ys], axis=1)],
+                 axis=1).reshape(2 * n, 8)  # rows: x then y of each sample
+    target = values[sub].reshape(-1, 2)[use].astype(np.float64).ravel()
+    weight = np.ones(n)
+    with _BLAS.limit(limits=1, user_api="blas"):
+        for _ in range(4):
+            aw = (a * np.repeat(weight ** 2, 2)[:, None]).T
+            coef = np.linalg.solve(aw @ a + 1e-12 * np.eye(8), aw @ target)
+            r = (a @ coef - target).reshape(n, 2)
+            r = np.hypot(r[:, 0], r[:, 1])
+            weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
+    return coef
+
+
 def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
                        ahead: np.ndarray, stride: int = 8) -> np.ndarray:
     """Each pixel's velocity, moved along its path ahead through the smooth flow field.
@@ -892,28 +948,63 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     """
     h, w = vel.shape[:2]
     gx, gy = pixel_grid(h, w)
-    sub = (slice(None, None, stride), slice(None, None, stride))
-    use = ok[sub].ravel()
-    if use.sum() < 32:
-        return vel
     mid_x, mid_y = gx + 0.5 * flow[..., 0], gy + 0.5 * flow[..., 1]
-    columns = np.stack([_projective_flow(unit, mid_x[sub], mid_y[sub], (h, w))
-                        for unit in np.eye(8)], axis=-1).reshape(-1, 2, 8)[use]
-    a = np.concatenate([columns[:, 0], columns[:, 1]]).astype(np.float64)
-    b = np.concatenate([vel[sub][..., 0].ravel()[use], vel[sub][..., 1].ravel()[use]])
-    n = int(use.sum())
-    weight = np.ones(n)
-    with _BLAS.limit(limits=1, user_api="blas"):
-        for _ in range(4):  # iteratively reweighted: objects and parallax are outliers here
-            w2 = np.tile(weight, 2)
-            coef = np.linalg.lstsq(a * w2[:, None], b * w2, rcond=None)[0]
-            r = a @ coef - b
-            r = np.hypot(r[:n], r[n:])
-            weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
-
+    coef = _fit_projective(vel, ok, mid_x, mid_y, stride)
+    if coef is None:
+        return vel
     return (vel + _projective_flow(coef, gx + 0.5 * ahead[..., 0], gy + 0.5 * ahead[..., 1],
                                    (h, w))
             - _projective_flow(coef, mid_x, mid_y, (h, w)))
+
+
+def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.ndarray,
+                   window: int = 9) -> np.ndarray:
+    """Give pixels the frame's global motion where it explains them as well as their own flow.
+
+    Dense flow is smoothed across motion boundaries (the background next to a moving
+    object or a nearer layer moves partly with it) and is noisy where the scene has little
+    structure. The frame's global motion -- the projective flow (:func:`_projective_flow`)
+    fitted robustly to the reliable pixels: camera rotation, a plane, the dominant layer --
+    replaces a pixel's own flow where it matches the other frame at least as well over a
+    ``window`` x ``window`` patch (sum of absolute differences). Pixels of independently
+    moving objects and of other layers keep their flow: the global motion does not match
+    them. Measured (``benchmarks/synthetic.py``, 320x240, dense method, error relative to
+    uncorrected, without -> with): moving object's background 0.0191x -> 0.0146x, the
+    same pan without the object 0.0046x -> 0.0013x, two-depth parallax 0.021x -> 0.018x,
+    pan 0.010x -> 0.006x, hand shake 0.046x -> 0.042x, PSNR the same or up to 0.03 dB
+    better; research pairs (``benchmarks/pairs.py``) Fastec 28.79 -> 28.78 dB, Carla
+    31.56 -> 31.57 dB. A 5 px window scored better on the suite (0.012x, 0.0009x, 0.015x)
+    and worse on the pairs (28.77 / 31.53); accepting the global motion only where it is
+    better by half a grey level scored worse on both.
+
+    Parameters
+    ----------
+    cur, other : ndarray of shape (h, w), float32
+        The frame and the neighbour the flow points to.
+    flow : ndarray of shape (h, w, 2), float32
+        Flow from ``cur`` to ``other`` (``cur(s) ~ other(s + flow(s))``).
+    ok : ndarray of bool, shape (h, w)
+        Pixels whose flow is reliable (the fit's samples).
+    window : int
+        Side of the patch compared (px).
+
+    Returns
+    -------
+    ndarray of shape (h, w, 2), float32
+    """
+    h, w = flow.shape[:2]
+    gx, gy = pixel_grid(h, w)
+    coef = _fit_projective(flow, ok, gx, gy)
+    if coef is None:
+        return flow
+    glob = _projective_flow(coef, gx, gy, (h, w))
+
+    def cost(f: np.ndarray) -> np.ndarray:
+        warped = cv2.remap(other, gx + f[..., 0], gy + f[..., 1], cv2.INTER_LINEAR,
+                           borderMode=cv2.BORDER_REPLICATE)
+        return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
+
+    return np.where((cost(glob) <= cost(flow))[..., None], glob, flow)
 
 
 @dataclass
@@ -1163,6 +1254,8 @@ class DenseMethod:
                                 (fr.fwd, fr.fwd_ok, neighbours.get(fr.index + 1))):
             if flow is None or ok is None or other is None:
                 continue
+            if self.config.snap_window:
+                flow = snap_to_global(fr.image, other.image, flow, ok, self.config.snap_window)
             t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
             resid = flow - (c_at_pixels(t_o) - c_s)
             sides.append((t_o, resid, ok, flow))
