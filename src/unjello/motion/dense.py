@@ -145,8 +145,10 @@ class DenseConfig:
         Look at the first ``probe`` frame pairs and switch to :data:`VIBRATION` when
         their row flows wobble from row to row (see :func:`vibration_level`).
     probe : int
-        Frame pairs looked at before the first frame is emitted, to decide; shorter
-        clips are never switched.
+        Frame pairs looked at before the first frame is emitted, to decide: pairs of
+        frames with contrast (grey-level standard deviation of at least 6, so not the
+        start of a fade from black), waiting at most twice this many pairs; with fewer
+        (short clips, long fades) the clip is never switched.
     sinusoids : int
         Sinusoids of free frequency (up to 1.6 cycles per frame interval) added to the
         camera trajectory, outside its smoothness penalty (vibration): picked from what
@@ -216,6 +218,12 @@ VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "s
 # steady clips (a constant pan: 0.01 %, share up to 1.0) out. 720p Big Buck Bunny with a
 # 2 px jello read in 0.6 of the frame interval: 0.29 % / 0.78 (missed at 0.4 %).
 _WOBBLE, _WOBBLE_SHARE = 0.002, 0.5
+
+# Frame pairs enter the vibration test only where both frames have this grey-level
+# standard deviation (0-255): the noise of a fade from black gave a simulated pan a wobble
+# of 0.42 % and the Big Buck Bunny trailer 3.3 %, both "vibration". The test waits for
+# ``probe`` such pairs, but no longer than this many times ``probe`` pairs in all.
+_PROBE_CONTRAST, _PROBE_WAIT = 6.0, 2
 
 
 def vibration_level(left: list[tuple[np.ndarray, np.ndarray]],
@@ -1018,6 +1026,11 @@ class _Frame:
     bwd_ok: np.ndarray | None = None
     fwd_ok: np.ndarray | None = None
 
+    @property
+    def contrast(self) -> float:
+        """Standard deviation of the grey levels (a fade from black starts near 0)."""
+        return float(cv2.meanStdDev(self.image)[1][0, 0])
+
 
 class DenseMethod:
     """Streaming dense method: returns each frame's motion ``window`` frames later.
@@ -1065,7 +1078,9 @@ class DenseMethod:
                                        self.config.finest_scale)
                 cur.bwd_ok = landing(cur.bwd)[2]  # lands inside the frame
             self._equations.append((cur.index, self._row_equations(prev, cur)))
-            if not self._decided:  # rows of each half, for the vibration test
+            if not self._decided and min(prev.contrast, cur.contrast) >= _PROBE_CONTRAST:
+                # Rows of each half, for the vibration test (frames too flat to give
+                # flow, as in a fade from black, would wobble with their noise).
                 self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
@@ -1117,7 +1132,8 @@ class DenseMethod:
     def _ready(self, final: bool) -> list[FrameMotion]:
         out: list[FrameMotion] = []
         if not self._decided:
-            if not final and self._count - 1 < self.config.probe:
+            probed = len(self._halves) >= self.config.probe
+            if not final and not probed and self._count - 1 < _PROBE_WAIT * self.config.probe:
                 return out
             self._decide()
         while self._next_out < self._count and (
