@@ -732,6 +732,18 @@ def invert_flow(flow: np.ndarray, iterations: int = 3) -> np.ndarray:
     return inv
 
 
+def _patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarray,
+                flow: np.ndarray, window: int) -> np.ndarray:
+    """Mean absolute difference of ``cur`` and ``other`` moved by ``flow``, over square patches.
+
+    ``gx, gy`` are the pixel coordinates of ``cur`` in ``other`` without motion (a crop's
+    offset included).
+    """
+    warped = cv2.remap(other, gx + flow[..., 0], gy + flow[..., 1], cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_REPLICATE)
+    return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
+
+
 def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
                         spread: float = 2.0, radii: tuple[int, ...] = (3, 8),
                         window: int = 5) -> np.ndarray:
@@ -783,9 +795,7 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     gx, gy = pixel_grid(ch, cw, y0, x0)
 
     def cost(f: np.ndarray) -> np.ndarray:
-        warped = cv2.remap(prev, gx + f[..., 0], gy + f[..., 1], cv2.INTER_LINEAR,
-                           borderMode=cv2.BORDER_REPLICATE)
-        return cv2.boxFilter(cv2.absdiff(warped, here), -1, (window, window))
+        return _patch_cost(here, prev, gx, gy, f, window)
 
     # Candidate 0 is the pixel's own flow; ties keep it.
     offsets = [(0, 0)] + [(dx * r, dy * r) for r in radii
@@ -1008,12 +1018,9 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
         return flow
     glob = _projective_flow(coef, gx, gy, (h, w))
 
-    def cost(f: np.ndarray) -> np.ndarray:
-        warped = cv2.remap(other, gx + f[..., 0], gy + f[..., 1], cv2.INTER_LINEAR,
-                           borderMode=cv2.BORDER_REPLICATE)
-        return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
-
-    return np.where((cost(glob) <= cost(flow))[..., None], glob, flow)
+    better = (_patch_cost(cur, other, gx, gy, glob, window)
+              <= _patch_cost(cur, other, gx, gy, flow, window))
+    return np.where(better[..., None], glob, flow)
 
 
 @dataclass
