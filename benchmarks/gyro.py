@@ -30,10 +30,12 @@ import cv2
 import numpy as np
 from skimage import data
 
+from unjello.config import CorrectionConfig
 from unjello.io.frames import list_frames, read_image
+from unjello.io.sidecars import write_gyro
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import GyroConfig, axes_matrix, write_gyro
-from unjello.pipeline import CorrectionConfig, correct_frames
+from unjello.motion.gyro import GyroConfig, axes_matrix
+from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
 

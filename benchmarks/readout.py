@@ -24,8 +24,7 @@ import numpy as np
 from skimage import data
 
 from unjello.io.frames import read_image
-from unjello.pipeline import estimate_readout_file
-from unjello.readout import estimate_readout, readout_from_flicker
+from unjello.readout import estimate_readout, estimate_readout_file, readout_from_flicker
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 

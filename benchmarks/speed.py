@@ -32,9 +32,10 @@ import av
 import numpy as np
 from skimage import data
 
+from unjello.config import CorrectionConfig
 from unjello.io.video import EncodeOptions, VideoReader, VideoWriter
 from unjello.motion.dense import DenseConfig
-from unjello.pipeline import CorrectionConfig, Corrector
+from unjello.pipeline import Corrector
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 

@@ -21,9 +21,10 @@ import av
 import numpy as np
 from skimage import data
 
+from unjello.config import CorrectionConfig
 from unjello.metrics import displacement_error, psnr
-from unjello.motion.dense import VIBRATION, DenseConfig
-from unjello.pipeline import CorrectionConfig, correct_frames
+from unjello.motion.dense import DenseConfig
+from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
@@ -46,7 +47,7 @@ CASES = {
 
 
 METHODS = {"paper": CorrectionConfig(method="paper"), "dense": CorrectionConfig(),
-           "vibration": CorrectionConfig(dense=DenseConfig(**VIBRATION))}
+           "vibration": CorrectionConfig(dense=DenseConfig(vibration="on"))}
 
 
 def degrade(frames: list[np.ndarray], seed: int = 0) -> list[np.ndarray]:
@@ -114,7 +115,7 @@ def main() -> None:
     if args.edge_refine:
         METHODS["dense"] = CorrectionConfig(dense=DenseConfig(edge_refine=True))
         METHODS["vibration"] = CorrectionConfig(dense=DenseConfig(edge_refine=True,
-                                                                  **VIBRATION))
+                                                                  vibration="on"))
     size = tuple(int(v) for v in args.size.split("x"))
     print(f"{args.frames} frames of {size[0]}x{size[1]}, readout 1.0; error = mean "
           "displacement error / uncorrected (lower is better)")

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
+from unjello.config import CorrectionConfig
 from unjello.exports import (
     backward_maps,
     maps_to_coded,
@@ -14,7 +15,7 @@ from unjello.exports import (
     stmap_to_maps,
 )
 from unjello.io.frames import read_image, write_image
-from unjello.pipeline import CorrectionConfig, correct_frames, correct_video
+from unjello.pipeline import correct_frames, correct_video
 from unjello.simulate import Motion, simulate
 from unjello.timing import DIRECTIONS, SensorTiming
 from unjello.trajectory import Trajectory
@@ -38,8 +39,8 @@ def test_stmap_reproduces_correction(tmp_path, scene, method, direction):
     timing = SensorTiming(0.8, direction=direction)
     src, sim = _folder(tmp_path, scene, timing)
     out, st = tmp_path / "out", tmp_path / "st"
-    correct_video(src, out, readout=0.8, direction=direction, stmap=st,
-                  config=CorrectionConfig(method=method))
+    correct_video(src, out, CorrectionConfig(method=method, readout=0.8, direction=direction),
+                  stmap=st)
     maps = sorted(st.iterdir())
     assert len(maps) == 4
     for i, m in enumerate(maps):
@@ -74,8 +75,8 @@ def test_motion_out_in_round_trip(tmp_path, scene, method):
     timing = SensorTiming(0.9)
     src, _ = _folder(tmp_path, scene, timing, n=5)
     a, b, motion = tmp_path / "a", tmp_path / "b", tmp_path / "m.json"
-    correct_video(src, a, readout=0.9, motion_out=motion,
-                  config=CorrectionConfig(method=method))
+    correct_video(src, a, CorrectionConfig(method=method, readout=0.9),
+                  motion_out=motion)
     doc = json.loads(motion.read_text())
     assert doc["schema"] == "unjello.trajectory" and doc["version"] == 1
     traj = correct_video(src, b, motion_in=motion)

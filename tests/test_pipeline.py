@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
+from unjello.config import CorrectionConfig
 from unjello.metrics import displacement_error, psnr
-from unjello.motion.dense import VIBRATION, DenseConfig
-from unjello.pipeline import CorrectionConfig, correct_frames
+from unjello.motion.dense import DenseConfig
+from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
 from unjello.timing import DIRECTIONS, SensorTiming
 
@@ -196,7 +197,7 @@ def test_drone_jello_vibration_mode(scene):
     # 23/31/39 Hz at 30 fps; the 31 Hz part (most of the error) beats once a second, so
     # `--vibration` solves each frame with about a second of footage on each side.
     # Measured on this 2 s clip: 0.98x with --vibration off, 0.18x with VIBRATION.
-    config = CorrectionConfig(dense=DenseConfig(**VIBRATION))
+    config = CorrectionConfig(dense=DenseConfig(vibration="on"))
     _, out, _, err, unc = _run(scene, Motion("jello"), SensorTiming(1.0), n=60, config=config)
     assert len(out) == 60
     assert err.mean() <= 0.3 * unc.mean(), (err.mean(), unc.mean())

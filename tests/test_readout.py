@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from unjello.config import CorrectionConfig
 from unjello.errors import InputError
 from unjello.io.frames import read_image
 from unjello.readout import estimate_readout, readout_from_flicker
@@ -88,8 +89,8 @@ def test_stated_readout_sidecar_and_metadata(tmp_path, scene):
 
     import av
 
+    from unjello.io.sidecars import stated_readout
     from unjello.pipeline import correct_video
-    from unjello.readout import stated_readout
 
     from .clips import make_clip
 
@@ -106,7 +107,7 @@ def test_stated_readout_sidecar_and_metadata(tmp_path, scene):
     assert traj.timing.readout == pytest.approx(0.75, abs=1e-3)  # 25 ms at 30 fps
     assert "sidecar" in messages[0]
     # The command line wins.
-    traj = correct_video(clip, tmp_path / "o2.mp4", readout=0.5)
+    traj = correct_video(clip, tmp_path / "o2.mp4", CorrectionConfig(readout=0.5))
     assert traj.timing.readout == 0.5
     # A container tag (Matroska keeps free-form tags).
     mkv = tmp_path / "tagged.mkv"

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from unjello.timing import SensorTiming
+from unjello.trajectory import scanline_displacement
 from unjello.warp import (
     field_maps,
     fill_from_neighbours,
@@ -10,7 +11,6 @@ from unjello.warp import (
     remap,
     resample_displacement,
     resize_maps,
-    scanline_displacement,
     splat,
 )
 

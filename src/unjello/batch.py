@@ -24,6 +24,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from .config import CorrectionConfig
 from .errors import InputError, MissingExtraError, SettingsError, UnjelloError
 from .io.frames import IMAGE_SUFFIXES
 from .io.video import VIDEO_SUFFIXES
@@ -70,7 +71,7 @@ def output_for(src: Path, out_dir: Path) -> Path:
     return out_dir / src.name
 
 
-def run_job(src: str, dst: str, options: dict[str, Any], overwrite: bool) -> dict[str, Any]:
+def run_job(src: str, dst: str, config: CorrectionConfig, overwrite: bool) -> dict[str, Any]:
     """Correct one clip; never raises for a bad clip (the error goes into the result).
 
     Returns
@@ -88,7 +89,7 @@ def run_job(src: str, dst: str, options: dict[str, Any], overwrite: bool) -> dic
         row["status"] = "skipped"
         return row
     try:
-        traj = correct_video(src, dst, overwrite=overwrite, **options)
+        traj = correct_video(src, dst, config, overwrite=overwrite)
         row["frames"] = len(traj)
         row["readout"] = traj.timing.readout
     except UnjelloError as exc:
@@ -174,7 +175,7 @@ def executor(kind: str = "local", address: str | None = None,
 def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *,
               kind: str = "local", address: str | None = None, workers: int | None = None,
               overwrite: bool = False, report: str | os.PathLike | None = None,
-              options: dict[str, Any] | None = None,
+              config: CorrectionConfig | None = None,
               on_result: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
     """Correct many clips into ``out_dir``.
 
@@ -189,9 +190,8 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
         Redo clips whose output exists.
     report : path-like, optional
         JSON-lines report (default ``out_dir/unjello-batch.jsonl``), appended to.
-    options : dict, optional
-        Keyword arguments of :func:`unjello.pipeline.correct_video` (readout, direction,
-        reference, config, encode, ...).
+    config : CorrectionConfig, optional
+        The settings of every clip (:func:`unjello.pipeline.correct_video`).
     on_result : callable, optional
         Called with each clip's result as it arrives.
 
@@ -204,10 +204,10 @@ def run_batch(inputs: Sequence[str | os.PathLike], out_dir: str | os.PathLike, *
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     report_path = Path(report) if report else out / "unjello-batch.jsonl"
-    opts = dict(options or {})
+    config = config or CorrectionConfig()
     results: dict[int, dict[str, Any]] = {}
     with executor(kind, address, workers) as ex, report_path.open("a") as rep:
-        futures = {ex.submit(run_job, str(c), str(output_for(c, out)), opts, overwrite): i
+        futures = {ex.submit(run_job, str(c), str(output_for(c, out)), config, overwrite): i
                    for i, c in enumerate(clips)}
         for fut in cf.as_completed(futures):
             i = futures[fut]

@@ -8,66 +8,24 @@ output.
 from __future__ import annotations
 
 import json
+import re
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from functools import partial
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
+from click.core import ParameterSource
 
 from . import __version__
+from .config import OPTIONS, PRESETS, CorrectionConfig
 from .errors import UnjelloError
 from .io.video import EncodeOptions
 from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
 
 __all__ = ["main", "cli"]
-
-
-PRESETS: dict[str, dict[str, Any]] = {
-    # The paper's own output: its method, forward splatting, black where nothing lands.
-    "paper-figures": {"method": "paper", "warp": "splat", "fill": "black"},
-    # Transcode-rate speed: the camera trajectory alone (no per-pixel parallax), from
-    # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
-    "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
-    # Drones and vehicles: vibration near the frame rate (see --vibration).
-    "drone": {"vibration": "on"},
-}
-_PRESET_KEYS = ("readout", "direction", "reference", "method", "warp", "fill", "search",
-                "flow_preset", "work_width", "camera_only", "edge_refine", "vibration", "codec",
-                "crf", "x264_preset")
-
-
-def _apply_preset(ctx: click.Context, preset: str) -> dict[str, Any]:
-    """Merge a named or JSON preset under the options given on the command line."""
-    from click.core import ParameterSource
-
-    from .errors import SettingsError
-
-    if preset in PRESETS:
-        values = dict(PRESETS[preset])
-    else:
-        path = Path(preset)
-        if not path.exists():
-            raise SettingsError(f"unknown preset {preset!r}: use one of {', '.join(PRESETS)} "
-                                "or a JSON file")
-        try:
-            values = json.loads(path.read_text())
-        except ValueError as exc:
-            raise SettingsError(f"preset {path}: not valid JSON ({exc})") from None
-        if not isinstance(values, dict):
-            raise SettingsError(f"preset {path}: must be a JSON object")
-    values = {k.replace("-", "_"): v for k, v in values.items()}
-    unknown = sorted(set(values) - set(_PRESET_KEYS))
-    if unknown:
-        raise SettingsError(f"preset {preset}: unknown key(s) {', '.join(unknown)}")
-    out = {}
-    for key in _PRESET_KEYS:
-        given = ctx.get_parameter_source(key) == ParameterSource.COMMANDLINE
-        out[key] = ctx.params[key] if given or key not in values else values[key]
-    return out
 
 
 @contextmanager
@@ -96,148 +54,68 @@ def _progress(label: str, quiet: bool) -> Iterator[Callable[[int, int], None] | 
         yield update
 
 
-def _readout_option(f: Callable, simulated: bool = False) -> Callable:
-    if simulated:
-        return click.option("--readout", default=None,
-                            help="Readout time of the simulated sensor: fraction of the frame "
-                                 "interval (0 < r <= 1) or milliseconds (15.7ms). Default "
-                                 "1.0.")(f)
-    return click.option("--readout", default=None,
-                        help="Readout time: fraction of the frame interval (0 < r <= 1), "
-                             "milliseconds (15.7ms), or 'auto' (stated by the file, else "
-                             "estimated from the motion). Default: what a sidecar or the "
-                             "file's metadata states, else 1.0.")(f)
-
-
-def _timing_options(f: Callable, simulated: bool = False) -> Callable:
+def _timing_options(f: Callable) -> Callable:
+    """``--readout``, ``--direction``, ``--reference`` of the simulator."""
     f = click.option("--reference", type=click.Choice(REFERENCES), default="middle",
-                     show_default=True, help="Scanline whose time the output shows.")(f)
+                     show_default=True, help="Scanline whose time the truth shows.")(f)
     f = click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
-                     show_default=True, help="Order the sensor reads its lines (coded "
-                                             "orientation).")(f)
-    return _readout_option(f, simulated)
+                     show_default=True, help="Order the sensor reads its lines.")(f)
+    return click.option("--readout", default="1.0", show_default=True,
+                        help="Readout time of the simulated sensor: fraction of the frame "
+                             "interval (0 < r <= 1) or milliseconds (15.7ms).")(f)
 
 
-def _settings_options(f: Callable) -> Callable:
-    """Options shared by ``correct`` and ``batch``: timing, method, warp, encoder, preset."""
-    for opt in reversed([
-        click.option("--method", type=click.Choice(["dense", "paper", "gyro"]), default="dense",
-                     show_default=True,
-                     help="Motion model: 'dense' = per-pixel flow with a scanline-resolution "
-                          "camera trajectory; 'paper' = Liang, Chang & Chen 2008; 'gyro' = "
-                          "a rotation per scanline from a gyro log (--gyro)."),
-        click.option("--warp", type=click.Choice(["remap", "splat"]), default="remap",
-                     show_default=True,
-                     help="Backward remap (fast) or the paper's forward splat."),
-        click.option("--fill", type=click.Choice(["nearest", "black"]), default="nearest",
-                     show_default=True, help="What fills the area no scanline reaches."),
-        click.option("--search", type=click.IntRange(1, 1000), default=160,
-                     show_default=True,
-                     help="Global block-matching search range, px (paper: 160)."),
-        click.option("--flow-preset", type=click.Choice(["ultrafast", "fast", "medium"]),
-                     default="medium", show_default=True,
-                     help="Dense method: DIS optical flow preset (speed vs accuracy)."),
-        click.option("--work-width", type=click.IntRange(0, 100000), default=480,
-                     show_default=True,
-                     help="Dense method: estimate motion on frames at most this wide "
-                          "(0: full)."),
-        click.option("--camera-only", is_flag=True,
-                     help="Dense method: camera trajectory only, one displacement per "
-                          "scanline (fast; no per-pixel parallax or moving objects)."),
-        click.option("--edge-refine", is_flag=True,
-                     help="Dense method: near motion boundaries (parallax, moving objects) "
-                          "give each pixel the flow of the side it matches; a third less "
-                          "motion error there (--stmap, --motion-out), up to a third slower."),
-        click.option("--vibration", type=click.Choice(["auto", "on", "off"]), default="auto",
-                     show_default=True,
-                     help="Dense method: follow vibration near the frame rate (drone jello) "
-                          "with a 1 s window (best on clips of 2 s or more); 'auto' turns it "
-                          "on when the first frames wobble."),
-        click.option("--preset",
-                     help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file with "
-                          "the same keys as these options; the command line wins."),
-        click.option("--codec", default="libx264", show_default=True),
-        click.option("--crf", type=click.IntRange(0, 51), default=18, show_default=True),
-        click.option("--x264-preset", default="medium", show_default=True,
-                     help="Encoder speed/size preset (ultrafast ... veryslow)."),
-    ]):
-        f = opt(f)
-    return _timing_options(f)
+def _config_options(per_clip: bool) -> Callable[[Callable], Callable]:
+    """Add one flag per :data:`unjello.config.OPTIONS` entry, and ``--preset``.
 
-
-def _gyro_options(f: Callable) -> Callable:
-    """Options of the gyro method (``correct`` only: a log belongs to one clip)."""
-    for opt in reversed([
-        click.option("--gyro", type=click.Path(path_type=Path),
-                     help="Gyro log of the clip (text or CSV: a time and three angular rates "
-                          "per line); implies --method gyro."),
-        click.option("--gyro-layout", default="auto", show_default=True,
-                     help="Column order of the log, e.g. t,x,y,z or x,y,z,t; auto: the "
-                          "increasing column is the time."),
-        click.option("--gyro-units", type=click.Choice(["rad", "deg"]), default="rad",
-                     show_default=True, help="Unit of the logged rates (per second)."),
-        click.option("--gyro-axes", default="auto", show_default=True,
-                     help="Camera x, y, z as gyro axes, e.g. XYZ or yXz (lower case: "
-                          "negated); auto: found from the footage's motion."),
-        click.option("--gyro-offset", type=float,
-                     help="Time on the log's clock of the first frame, ms; default: found "
-                          "from the footage's motion."),
-        click.option("--focal", type=click.FloatRange(min=0, min_open=True),
-                     help="Focal length in pixels of the frame; default: found from the "
-                          "footage's motion."),
-        click.option("--fps", type=click.FloatRange(min=0, min_open=True), default=30.0,
-                     show_default=True,
-                     help="Frame rate of a folder of frames, for the gyro method (a video "
-                          "states its own)."),
-    ]):
-        f = opt(f)
-    return f
-
-
-def _settings(options: dict[str, Any]) -> tuple[str | None, str, str, Any, EncodeOptions]:
-    """Apply ``--preset`` and build the correction settings from the shared options.
-
-    Returns
-    -------
-    readout, direction, reference, CorrectionConfig, EncodeOptions
+    The flags carry no defaults of their own: what is not given on the command line
+    comes from the preset, else from :class:`~unjello.config.CorrectionConfig`'s
+    defaults (shown in ``--help``).
     """
-    from .errors import SettingsError
-    from .motion.dense import VIBRATION, DenseConfig
-    from .motion.global_motion import BlockMatchConfig
-    from .motion.gyro import GyroConfig
-    from .motion.paper import PaperConfig
-    from .pipeline import CorrectionConfig
+    defaults = CorrectionConfig()
 
-    v = dict(options)
-    preset = v.pop("preset", None)
-    if preset:
-        v.update(_apply_preset(click.get_current_context(), preset))
-    vibration = {True: "on", False: "off"}.get(v["vibration"], v["vibration"])
-    if vibration not in ("auto", "on", "off"):
-        raise SettingsError(f"vibration must be auto, on or off, not {vibration!r}")
-    method = v["method"]
-    gyro = GyroConfig()
-    if "gyro" in v:  # correct's gyro options (a log of its own, or NAME.gyro.csv beside it)
-        if v["gyro"] is not None:
-            if method == "paper":
-                raise SettingsError("--gyro goes with --method gyro, not paper")
-            method = "gyro"
-        offset = v["gyro_offset"]
-        gyro = GyroConfig(path=None if v["gyro"] is None else str(v["gyro"]),
-                          layout=v["gyro_layout"], units=v["gyro_units"], axes=v["gyro_axes"],
-                          offset=None if offset is None else offset / 1e3, focal=v["focal"],
-                          fps=v["fps"])
-    config = CorrectionConfig(method=method, warp=v["warp"], fill=v["fill"],
-                              paper=PaperConfig(BlockMatchConfig(search=v["search"])),
-                              dense=DenseConfig(flow_preset=v["flow_preset"],
-                                                work_width=v["work_width"],
-                                                per_pixel=not v["camera_only"],
-                                                edge_refine=v["edge_refine"],
-                                                detect_vibration=vibration == "auto",
-                                                **(VIBRATION if vibration == "on" else {})),
-                              gyro=gyro)
-    return (v["readout"], v["direction"], v["reference"], config,
-            EncodeOptions(v["codec"], v["crf"], v["x264_preset"]))
+    def decorate(f: Callable) -> Callable:
+        f = click.option("--preset",
+                         help="Named settings (" + ", ".join(PRESETS) + ") or a JSON file "
+                              "of these options' names and values; the command line wins.")(f)
+        for opt in reversed(list(OPTIONS.values())):
+            if opt.per_clip and not per_clip:
+                continue
+            default = defaults.option(opt.name)
+            help_text = opt.help + (f" [default: {default}]" if default not in (None, False)
+                                    and opt.name not in ("direction", "reference") else "")
+            if opt.kind == "flag":
+                f = click.option(opt.flag, opt.name, is_flag=True, default=None,
+                                 help=help_text)(f)
+            else:
+                kind: Any = (click.Choice(opt.choices) if opt.choices else
+                             click.Path(path_type=Path) if opt.kind == "path" else str)
+                f = click.option(opt.flag, opt.name, type=kind, default=None,
+                                 help=help_text)(f)
+        return f
+
+    return decorate
+
+
+def _config(preset: str | None, options: dict[str, Any]) -> CorrectionConfig:
+    """Build the settings: the preset (or the defaults) under the flags given."""
+    ctx = click.get_current_context()
+    given = {name: value for name, value in options.items()
+             if ctx.get_parameter_source(name) in (ParameterSource.COMMANDLINE,
+                                                   ParameterSource.ENVIRONMENT)}
+    base = CorrectionConfig.from_preset(preset) if preset else CorrectionConfig()
+    return base.with_options(origin="command line", **given)
+
+
+def _flagify(message: str) -> str:
+    """Say a library message in flags: ``overwrite=True`` -> ``-y``, ``gyro=`` -> ``--gyro``."""
+    message = message.replace("pass overwrite=True to replace it", "pass -y to overwrite it")
+    message = message.replace("overwrite=True", "-y")
+    def flag(m: re.Match, gap: str) -> str:
+        return OPTIONS[m.group(1)].flag + gap if m.group(1) in OPTIONS else m.group(0)
+
+    message = re.sub(r"\b([a-z][a-z0-9_]*)=(?=[\w'\"])", lambda m: flag(m, " "), message)
+    return re.sub(r"\b([a-z][a-z0-9_]*)=", lambda m: flag(m, ""), message)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -250,8 +128,7 @@ def cli() -> None:
 @click.argument("input", type=click.Path(path_type=Path))
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               help="Output video, or folder for a folder input.")
-@_settings_options
-@_gyro_options
+@_config_options(per_clip=True)
 @click.option("--motion-out", type=click.Path(path_type=Path),
               help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
 @click.option("--motion-in", type=click.Path(path_type=Path),
@@ -264,31 +141,28 @@ def cli() -> None:
               help="Print one JSON summary line on stdout.")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
-def correct(input: Path, output: Path, motion_out: Path | None, motion_in: Path | None,
-            preview: Path | None, stmap: Path | None, as_json: bool, overwrite: bool,
-            quiet: bool, **options: Any) -> None:
+def correct(input: Path, output: Path, preset: str | None, motion_out: Path | None,
+            motion_in: Path | None, preview: Path | None, stmap: Path | None, as_json: bool,
+            overwrite: bool, quiet: bool, **options: Any) -> None:
     """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
     import time
 
     from .pipeline import correct_video
 
-    readout, direction, reference, config, encode = _settings(options)
-    if readout is not None and str(readout).strip().lower() != "auto" and not input.is_dir():
-        parse_readout(str(readout), 30.0)  # validate early, before opening anything
+    config = _config(preset, options)
     messages: list[str] = []
 
     def log(m: str) -> None:
+        m = _flagify(m)
         messages.append(m)
         if not quiet or m.startswith("warning"):
             click.echo(m, err=True)
 
     t0 = time.perf_counter()
     with _progress("correcting", quiet or as_json) as progress:
-        traj = correct_video(input, output, readout=readout, direction=direction,
-                             reference=reference, config=config, encode=encode,
-                             overwrite=overwrite,
-                             motion_out=motion_out, progress=progress, log=log,
-                             motion_in=motion_in, preview=preview, stmap=stmap)
+        traj = correct_video(input, output, config, overwrite=overwrite,
+                             motion_out=motion_out, motion_in=motion_in, preview=preview,
+                             stmap=stmap, progress=progress, log=log)
     seconds = time.perf_counter() - t0
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
@@ -355,7 +229,7 @@ def readout(image: Path, frequency: float, fps: float | None, direction: str,
 @click.option("--json", "as_json", is_flag=True)
 def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) -> None:
     """Estimate the readout ratio of INPUT (video or folder) from its motion."""
-    from .pipeline import estimate_readout_file
+    from .readout import estimate_readout_file
 
     est = estimate_readout_file(input, direction=direction, max_frames=frames)
     if as_json:
@@ -382,7 +256,7 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
               help="True trajectory JSON (default <truth>.motion.json).")
 @click.option("--motion", default="pan", show_default=True,
               help="pan, stop, diagonal, shake, jello, or a JSON trajectory file.")
-@partial(_timing_options, simulated=True)
+@_timing_options
 @click.option("--frames", type=click.IntRange(1, 100000), default=30, show_default=True)
 @click.option("--fps", type=float, help="Frame rate (default: the source's, else 30).")
 @click.option("--size", help="Output WIDTHxHEIGHT.")
@@ -396,12 +270,12 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
               help="Also write a gyro log of the motion (CSV, 400 Hz; for --method gyro).")
 @click.option("-y", "--overwrite", is_flag=True)
 def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None, motion: str,
-             readout: str | None, direction: str, reference: str, frames: int, fps: float | None,
+             readout: str, direction: str, reference: str, frames: int, fps: float | None,
              size: str | None, speed: float, amplitude: float, exposure: float, crf: int,
              gyro_out: Path | None, overwrite: bool) -> None:
     """Render a rolling-shutter clip and its truth from an image or a GS video."""
     from .errors import SettingsError
-    from .pipeline import simulate_clip
+    from .simulate import simulate_clip
 
     wh = None
     if size:
@@ -410,8 +284,8 @@ def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None,
             wh = (w, h)
         except ValueError:
             raise SettingsError(f"--size must look like 640x480, got {size!r}") from None
-    timing = SensorTiming(parse_readout(readout or "1.0", fps or 30.0),  # type: ignore[arg-type]
-                          direction, reference)  # type: ignore[arg-type]
+    timing = SensorTiming(parse_readout(readout, fps or 30.0), direction,  # type: ignore[arg-type]
+                          reference)  # type: ignore[arg-type]
     simulate_clip(source, output, truth, motion=motion, timing=timing, frames=frames, fps=fps,
                   size=wh, speed=speed, amplitude=amplitude, exposure=exposure,
                   overwrite=overwrite, truth_motion=truth_motion,
@@ -432,7 +306,7 @@ def simulate(source: Path, output: Path, truth: Path, truth_motion: Path | None,
 def evaluate(output: Path, truth: Path, motion: Path | None, true_motion: Path | None,
              margin: int, as_json: bool) -> None:
     """Score OUTPUT against global-shutter TRUTH: PSNR, SSIM, displacement error."""
-    from .pipeline import evaluate as run
+    from .metrics import evaluate as run
 
     rows = run(output, truth, motion=motion, true_motion=true_motion, margin=margin)
     keys = [k for k in ("psnr", "ssim", "displacement_error", "uncorrected_error")
@@ -474,7 +348,7 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
 @click.argument("inputs", nargs=-1, required=True)
 @click.option("-o", "--output", "out_dir", type=click.Path(path_type=Path), required=True,
               help="Output folder; outputs are named after the inputs.")
-@_settings_options
+@_config_options(per_clip=False)
 @click.option("--executor", "kind", type=click.Choice(["local", "dask", "ray"]),
               default="local", show_default=True,
               help="Local process pool, or an existing/local Dask or Ray cluster.")
@@ -484,26 +358,22 @@ def demo(output: Path, frames: int, overwrite: bool) -> None:
               help="JSON-lines report (default OUT_DIR/unjello-batch.jsonl).")
 @click.option("-y", "--overwrite", is_flag=True, help="Redo clips whose output exists.")
 @click.option("-q", "--quiet", is_flag=True)
-def batch(inputs: tuple[str, ...], out_dir: Path, kind: str, address: str | None,
-          workers: int | None, report: Path | None, overwrite: bool, quiet: bool,
-          **settings: Any) -> None:
+def batch(inputs: tuple[str, ...], out_dir: Path, preset: str | None, kind: str,
+          address: str | None, workers: int | None, report: Path | None, overwrite: bool,
+          quiet: bool, **options: Any) -> None:
     """Correct many clips (files, folders, globs) into OUT_DIR; resumable."""
     from .batch import run_batch
 
-    readout, direction, reference, config, encode = _settings(settings)
-    if readout is not None and readout.strip().lower() != "auto":
-        parse_readout(readout, 30.0)
-    options = {"readout": readout, "direction": direction, "reference": reference,
-               "config": config, "encode": encode}
+    config = _config(preset, options)
 
     def show(row: dict) -> None:
         if not quiet:
-            extra = f" ({row['error']})" if row["error"] else ""
+            extra = f" ({_flagify(row['error'])})" if row["error"] else ""
             click.echo(f"{row['status']:8} {row['input']} {row['seconds']:.1f} s{extra}",
                        err=True)
 
     rows = run_batch(inputs, out_dir, kind=kind, address=address, workers=workers,
-                     overwrite=overwrite, report=report, options=options, on_result=show)
+                     overwrite=overwrite, report=report, config=config, on_result=show)
     failed = sum(r["status"] == "failed" for r in rows)
     done = sum(r["status"] == "ok" for r in rows)
     skipped = sum(r["status"] == "skipped" for r in rows)
@@ -519,12 +389,11 @@ def batch(inputs: tuple[str, ...], out_dir: Path, kind: str, address: str | None
 @click.option("-y", "--overwrite", is_flag=True)
 def plot(motion: Path, output: Path, overwrite: bool) -> None:
     """Plot a motion JSON: per-scanline displacement and velocity over time."""
-    from .errors import OutputError
     from .exports import plot_trajectory
+    from .io.sink import check_new
     from .trajectory import Trajectory
 
-    if output.exists() and not overwrite:
-        raise OutputError(f"{output} exists; pass -y to overwrite it")
+    check_new(output, overwrite)
     plot_trajectory(Trajectory.load(motion), output)
     click.echo(f"wrote {output}", err=True)
 
@@ -534,9 +403,9 @@ def plot(motion: Path, output: Path, overwrite: bool) -> None:
 @click.option("--json", "as_json", is_flag=True)
 def probe(input: Path, as_json: bool) -> None:
     """Describe a video: size, rate (and whether it varies), rotation, audio, format."""
+    from .io.sidecars import stated_readout
     from .io.video import probe as run_probe
     from .io.video import variable_rate
-    from .readout import stated_readout
 
     info = run_probe(input)
     vfr = variable_rate(input)
@@ -579,5 +448,5 @@ def main(argv: list[str] | None = None) -> Any:
         exc.show()
         sys.exit(exc.exit_code)
     except UnjelloError as exc:
-        click.echo(f"unjello: error: {exc}", err=True)
+        click.echo(f"unjello: error: {_flagify(str(exc))}", err=True)
         sys.exit(2)

@@ -5,31 +5,17 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from .errors import OutputError
+from .exports import side_by_side
 from .io.frames import write_image
+from .io.sink import FrameSink, check_new
 from .metrics import displacement_error, psnr
-from .pipeline import FrameSink, correct_frames
+from .pipeline import correct_frames
 from .simulate import Motion, simulate
 from .timing import SensorTiming
 
-__all__ = ["run_demo", "side_by_side"]
-
-
-def side_by_side(before: np.ndarray, after: np.ndarray, labels: tuple[str, str] = (
-        "rolling shutter", "unjello")) -> np.ndarray:
-    """Put two RGB frames next to each other with a divider and labels."""
-    h = before.shape[0]
-    bar = np.full((h, 4, 3), 255, np.uint8)
-    out = np.hstack([before[..., :3], bar, after[..., :3]]).copy()
-    for x, text in ((8, labels[0]), (before.shape[1] + 12, labels[1])):
-        cv2.putText(out, text, (x, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (0, 0, 0), 4,
-                    cv2.LINE_AA)
-        cv2.putText(out, text, (x, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 1,
-                    cv2.LINE_AA)
-    return out
+__all__ = ["run_demo"]
 
 
 def run_demo(output: str | os.PathLike = "unjello_demo.mp4", *, frames: int = 36,
@@ -56,8 +42,7 @@ def run_demo(output: str | os.PathLike = "unjello_demo.mp4", *, frames: int = 36
 
     output = Path(output)
     still = output.with_suffix(".png")
-    if still.exists() and not overwrite:
-        raise OutputError(f"{still} exists; pass -y to overwrite it")
+    check_new(still, overwrite)
     timing = SensorTiming(readout)
     sim = list(simulate(data.astronaut(), Motion("diagonal", speed=speed), timing, frames,
                         size=(448, 336)))

@@ -1,19 +1,27 @@
-"""Exports that read the Trajectory: STMaps for compositing apps, and motion plots."""
+"""Exports that read the Trajectory: STMaps, motion plots, side-by-side views, side outputs.
+
+:class:`SideOutputs` writes, while a clip is corrected, what a user asked for beside the
+corrected clip: the motion JSON, one STMap per frame, and a side-by-side preview video.
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from .io.frames import write_image
+from .io.sink import FrameSink, remove, replace, temp_path
+from .io.source import FrameSource
+from .io.video import EncodeOptions, VideoWriter
 from .timing import SensorTiming
-from .trajectory import FrameMotion, Trajectory
+from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import field_maps, remap_maps, resize_maps
 
 __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "stmap_to_maps", "write_stmap",
-           "plot_trajectory"]
+           "plot_trajectory", "side_by_side", "side_by_side_planes", "SideOutputs"]
 
 
 def backward_maps(motion: FrameMotion, width: int) -> tuple[np.ndarray, np.ndarray]:
@@ -145,3 +153,130 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
         ax.grid(alpha=0.3)
     fig.savefig(str(output), dpi=110)
     plt.close(fig)
+
+
+def side_by_side(before: np.ndarray, after: np.ndarray, labels: tuple[str, str] = (
+        "rolling shutter", "unjello")) -> np.ndarray:
+    """Put two RGB frames next to each other with a divider and labels."""
+    h = before.shape[0]
+    bar = np.full((h, 4, 3), 255, np.uint8)
+    out = np.hstack([before[..., :3], bar, after[..., :3]]).copy()
+    for x, text in ((8, labels[0]), (before.shape[1] + 12, labels[1])):
+        cv2.putText(out, text, (x, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (0, 0, 0), 4,
+                    cv2.LINE_AA)
+        cv2.putText(out, text, (x, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 1,
+                    cv2.LINE_AA)
+    return out
+
+
+def side_by_side_planes(before: list[np.ndarray], after: list[np.ndarray]
+                        ) -> list[np.ndarray]:
+    """Input and output planes next to each other with a 4-pixel white divider."""
+    out = []
+    w0 = before[0].shape[1]
+    for i, (a, b) in enumerate(zip(before, after, strict=True)):
+        div = max(1, 4 * a.shape[1] // w0)
+        white = np.iinfo(a.dtype).max if i == 0 else (np.iinfo(a.dtype).max + 1) // 2
+        bar = np.full((a.shape[0], div) + a.shape[2:], white, dtype=a.dtype)
+        out.append(np.hstack([a, bar, b]))
+    return out
+
+
+def _rgb8(img: np.ndarray) -> np.ndarray:
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=2)
+    if img.dtype != np.uint8:
+        img = (img.astype(np.float64) * 255.0 / np.iinfo(img.dtype).max).astype(np.uint8)
+    return np.ascontiguousarray(img[..., :3])
+
+
+class SideOutputs:
+    """What is written beside the corrected clip, frame by frame, atomically.
+
+    Parameters
+    ----------
+    motion_out : path-like, optional
+        The motion JSON (:class:`~unjello.trajectory.TrajectoryWriter`).
+    stmap : path-like, optional
+        A folder of per-frame STMaps (:func:`write_stmap`).
+    preview : path-like, optional
+        A side-by-side video, input left, corrected right: in the input's own format,
+        timing and rotation for a video source, RGB for a folder.
+    encode : EncodeOptions
+        Encoder of the preview.
+    """
+
+    def __init__(self, motion_out: str | os.PathLike | None = None,
+                 stmap: str | os.PathLike | None = None,
+                 preview: str | os.PathLike | None = None,
+                 encode: EncodeOptions = EncodeOptions()) -> None:
+        self.motion_out = Path(motion_out) if motion_out is not None else None
+        self.stmap = Path(stmap) if stmap is not None else None
+        self.preview = Path(preview) if preview is not None else None
+        self.encode = encode
+        self._motion: TrajectoryWriter | None = None
+        self._stmap_tmp: Path | None = None
+        self._sink: FrameSink | None = None
+        self._writer: VideoWriter | None = None
+        self._preview_tmp: Path | None = None
+
+    @property
+    def paths(self) -> tuple[Path, ...]:
+        """The outputs asked for."""
+        return tuple(p for p in (self.motion_out, self.stmap, self.preview) if p is not None)
+
+    def start(self, source: FrameSource, traj: Trajectory, fps: float) -> None:
+        """Open the outputs for a clip whose trajectory header is ``traj``."""
+        if self.motion_out is not None:
+            self._motion = TrajectoryWriter(self.motion_out, traj)
+        if self.stmap is not None:
+            self._stmap_tmp = temp_path(self.stmap)
+            self._stmap_tmp.mkdir()
+        if self.preview is not None:
+            if source.reader is not None:
+                reader, info = source.reader, source.reader.info
+                self._preview_tmp = temp_path(self.preview)
+                self._writer = VideoWriter(
+                    self._preview_tmp, size=(2 * info.width + 4, info.height), fps=info.fps,
+                    time_base=info.time_base, pix_fmt=reader.work_format, options=self.encode,
+                    rotation=info.rotation, color=info.color)
+            else:
+                self._sink = FrameSink(self.preview, fps, True, self.encode)
+
+    def frame(self, before: list[np.ndarray], after: list[np.ndarray], fm: FrameMotion,
+              timing: SensorTiming, pts: int | None = None) -> None:
+        """Write one frame's side outputs."""
+        if self._motion is not None:
+            self._motion.write(fm)
+        if self._stmap_tmp is not None:
+            h, w = before[0].shape[:2]
+            write_stmap(self._stmap_tmp, fm, timing, (w, h))
+        if self._writer is not None:
+            self._writer.write(side_by_side_planes(before, after), pts)
+        elif self._sink is not None:
+            self._sink.write(side_by_side(_rgb8(before[0]), _rgb8(after[0]),
+                                          ("input", "unjello")))
+
+    def finish(self) -> None:
+        """Move every output into place."""
+        if self._motion is not None:
+            self._motion.close()
+        if self._writer is not None and self._preview_tmp is not None and self.preview:
+            self._writer.close()
+            replace(self._preview_tmp, self.preview)
+        if self._sink is not None:
+            self._sink.close()
+        if self._stmap_tmp is not None and self.stmap is not None:
+            replace(self._stmap_tmp, self.stmap)
+
+    def abort(self) -> None:
+        """Drop every partial output."""
+        if self._motion is not None:
+            self._motion.abort()
+        if self._writer is not None:
+            self._writer.abort()
+        if self._sink is not None:
+            self._sink.abort()
+        for tmp in (self._preview_tmp, self._stmap_tmp):
+            if tmp is not None:
+                remove(tmp)

@@ -9,12 +9,17 @@ measured with the same function only.
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
-from .trajectory import FrameMotion
+from .errors import InputError
+from .io.source import read_frames
+from .trajectory import FrameMotion, Trajectory
 
-__all__ = ["psnr", "ssim", "displacement_error", "crop_margin"]
+__all__ = ["psnr", "ssim", "displacement_error", "crop_margin", "evaluate"]
 
 
 def crop_margin(image: np.ndarray, margin: int | tuple[int, int]) -> np.ndarray:
@@ -86,3 +91,45 @@ def displacement_error(estimate: FrameMotion | None, truth: FrameMotion,
     est_f = np.zeros_like(true_f) if estimate is None else estimate.pixel_displacement(w)
     err = np.linalg.norm(est_f - true_f, axis=-1)
     return float(err[mask].mean() if mask is not None else err.mean())
+
+
+def evaluate(output: str | os.PathLike, truth: str | os.PathLike, *,
+             motion: str | os.PathLike | None = None,
+             true_motion: str | os.PathLike | None = None, margin: int = 0) -> list[dict]:
+    """Score corrected frames against global-shutter truth, frame by frame.
+
+    Parameters
+    ----------
+    output, truth : path-like
+        Videos or image folders with the same number of frames.
+    motion, true_motion : path-like, optional
+        Estimated and true trajectories (JSON); with both, the per-scanline displacement
+        error is reported too (``true_motion`` defaults to ``<truth>.motion.json`` when
+        that file exists).
+    margin : int
+        Pixels cropped from every side before PSNR/SSIM.
+
+    Returns
+    -------
+    list of dict
+        ``frame``, ``psnr``, ``ssim`` and, with trajectories, ``displacement_error`` and
+        ``uncorrected_error`` (px).
+    """
+    if true_motion is None and Path(f"{truth}.motion.json").exists():
+        true_motion = Path(f"{truth}.motion.json")
+    est = Trajectory.load(motion) if motion else None
+    tru = Trajectory.load(true_motion) if true_motion else None
+    rows = []
+    for i, (a, b) in enumerate(zip(read_frames(output), read_frames(truth), strict=False)):
+        if a.shape[:2] != b.shape[:2]:
+            raise InputError(f"frame {i}: output {a.shape[1]}x{a.shape[0]} and truth "
+                             f"{b.shape[1]}x{b.shape[0]} differ in size")
+        row = {"frame": i, "psnr": psnr(a, b, margin), "ssim": ssim(a, b, margin)}
+        if tru is not None and i < len(tru.frames):
+            row["uncorrected_error"] = displacement_error(None, tru.frames[i])
+            if est is not None and i < len(est.frames):
+                row["displacement_error"] = displacement_error(est.frames[i], tru.frames[i])
+        rows.append(row)
+    if not rows:
+        raise InputError("no frames to compare")
+    return rows

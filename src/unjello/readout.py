@@ -24,8 +24,8 @@ one of two trajectory models:
 
 - **smooth** (pans, stops, hand shake): a trajectory sampled finely in time with a
   small penalty on its acceleration (regularised least squares,
-  :func:`unjello.motion.dense.solve_camera_trajectory`), four frame pairs at a time.
-- **vibration** (when the rows wobble as :func:`unjello.motion.dense.vibration_level`
+  :func:`unjello.motion.camera.solve_camera_trajectory`), four frame pairs at a time.
+- **vibration** (when the rows wobble as :func:`unjello.motion.vibration.vibration_level`
   detects it): rows only sample the readout part of each frame interval, so ``rho``
   shows only in how the trajectory continues across the blanking, and a smoothness
   penalty prefers the candidate that stretches a fast vibration most (long readouts).
@@ -46,7 +46,6 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -55,7 +54,7 @@ from .errors import InputError
 from .timing import to_top_bottom
 
 __all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "ReadoutEstimate",
-           "estimate_readout", "StatedReadout", "stated_readout"]
+           "estimate_readout", "estimate_readout_file"]
 
 
 @dataclass(frozen=True)
@@ -219,7 +218,7 @@ def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: 
     >>> min(costs, key=costs.get)
     0.6
     """
-    from .motion.dense import sinusoid_pursuit
+    from .motion.vibration import sinusoid_pursuit
 
     t0 = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
                                                               float(t_b.max())))
@@ -286,14 +285,10 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     -------
     ReadoutEstimate
     """
-    from .motion.dense import (
-        DenseConfig,
-        detect_vibration,
-        flow_pair,
-        half_row_flows,
-        row_flows,
-        solve_camera_trajectory,
-    )
+    from .motion.camera import solve_camera_trajectory
+    from .motion.dense import DenseConfig
+    from .motion.flow import FlowSettings, flow_pair, half_row_flows, row_flows
+    from .motion.vibration import detect_vibration
 
     grey, times = [], []
     start_list = list(starts) if starts is not None else None
@@ -312,15 +307,14 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
     # wide: the confidence threshold was calibrated with it; at full resolution
     # pan-then-stop scored as low as 0.52. (Its flow settings are kept as calibrated.)
-    cfg = DenseConfig(finest_scale=1, work_width=640, edge_refine=False, refinement=None,
-                      consistency=10.0)
+    flow = FlowSettings("medium", finest_scale=1, refinement=None, consistency=10.0)
     pairs, halves = [], []
     for k in range(1, len(grey)):
-        bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], cfg, cfg.work_width, two_way=True)
+        bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], flow, 640, two_way=True)
         pairs.append(row_flows(bwd, ok))
         halves.append(half_row_flows(bwd, ok))
     # Vibration is told as the dense method's --vibration auto tells it (as many pairs).
-    vibrating = detect_vibration(halves, h, cfg.probe) is not None
+    vibrating = detect_vibration(halves, h, DenseConfig().probe) is not None
     window = 12 if vibrating else 4
     # Uniform motion carries no information on the readout: check there is variation.
     flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(
@@ -370,98 +364,39 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
                            "vibration" if vibrating else "smooth")
 
 
-@dataclass(frozen=True)
-class StatedReadout:
-    """A readout time stated by the file or a sidecar.
-
-    Attributes
-    ----------
-    milliseconds : float
-    source : str
-        Where it was found (for the user).
-    """
-
-    milliseconds: float
-    source: str
-
-
-def _find_readout_key(obj: object, depth: int = 0) -> float | None:
-    """First numeric value under a key naming the readout time (ms), in nested data."""
-    if depth > 6:
-        return None
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            key = str(k).lower().replace(" ", "_")
-            if "readout" in key and not isinstance(v, (dict, list)):
-                try:
-                    value = float(str(v).lower().replace("ms", "").strip())
-                except ValueError:
-                    continue
-                if "us" in key or "micro" in key:
-                    value /= 1000.0
-                if value > 0:
-                    return value
-        for v in obj.values():
-            found = _find_readout_key(v, depth + 1)
-            if found is not None:
-                return found
-    elif isinstance(obj, list):
-        for v in obj[:50]:
-            found = _find_readout_key(v, depth + 1)
-            if found is not None:
-                return found
-    return None
-
-
-def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
-    """Readout time stated for a video by a sidecar file or its metadata, if any.
-
-    Looked up, in order:
-
-    1. A JSON sidecar beside the video -- ``NAME.readout.json``, ``NAME.json`` or
-       ``STEM.json`` -- with a key naming the readout in ms, such as Gyroflow's
-       ``frame_readout_time`` (lens profiles and project files) or ``readout_ms``.
-    2. Container and stream metadata tags whose name contains ``readout`` (ms).
-    3. With the optional ``telemetry-parser`` package (``pip install 'unjello[gyro]'``),
-       the camera metadata it decodes (Sony, GoPro, DJI, ...), searched the same way.
+def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
+                          max_frames: int = 60, fallback: float = 1.0,
+                          fps: float | None = None) -> ReadoutEstimate:
+    """Estimate the readout ratio of a video or image folder from its motion.
 
     Parameters
     ----------
-    path : path-like
-        The video (or frame folder: sidecars only).
+    src : path-like
+        Video file or folder of frames.
+    direction : str
+        Scan direction.
+    max_frames : int
+        Frames analysed from the start.
+    fallback : float
+        Readout returned when the motion cannot tell.
+    fps : float, optional
+        The frame rate whose interval is the unit (default the video's own).
 
     Returns
     -------
-    StatedReadout or None
+    ReadoutEstimate
+        See :func:`estimate_readout`.
     """
-    import json
+    from .io.source import FrameSource
 
-    p = Path(path)
-    for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
-                 p.with_suffix(".json")):
-        if side != p and side.is_file():
-            try:
-                value = _find_readout_key(json.loads(side.read_text()))
-            except (OSError, ValueError):
-                value = None
-            if value is not None:
-                return StatedReadout(value, f"sidecar {side.name}")
-    if not p.is_file():
-        return None
-    from .io.video import metadata_tags
-
-    value = _find_readout_key(metadata_tags(p))
-    if value is not None:
-        return StatedReadout(value, "container metadata")
-    try:
-        import telemetry_parser
-    except ImportError:
-        return None
-    try:
-        tp = telemetry_parser.Parser(str(p))
-        value = _find_readout_key(tp.telemetry(human_readable=True))
-    except Exception:  # noqa: BLE001 - vendor parsers fail on many files; then nothing
-        return None
-    if value is not None:
-        return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
-    return None
+    frames: list[np.ndarray] = []
+    starts: list[float] = []
+    with FrameSource(src) as source:
+        for pic in source.pictures(fps, limit=max_frames):
+            img = pic.planes[0]
+            if source.info.is_video and source.info.max_value > 255:
+                img = (img >> 2).astype(np.uint8)
+            frames.append(img)
+            starts.append(pic.start)
+    return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback,
+                            max_frames=max_frames)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 
 from .errors import SettingsError
 
@@ -48,6 +49,10 @@ __all__ = [
     "REFERENCES",
     "SensorTiming",
     "parse_readout",
+    "readout_request",
+    "Milliseconds",
+    "ReadoutRequest",
+    "pixel_grid",
     "to_top_bottom",
     "from_top_bottom",
 ]
@@ -115,16 +120,101 @@ class SensorTiming:
         """Return the time the corrected frame represents (eq. 11 and 26 for 'middle')."""
         return start + self.readout * self.reference_row(height) / height
 
-    def lines(self, shape: tuple[int, ...]) -> int:
-        """Return the number of scanlines of a frame of ``shape`` in coded orientation."""
-        return shape[1] if self.direction in ("left-right", "right-left") else shape[0]
+
+_MS = re.compile(r"^\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*ms\s*$", re.IGNORECASE)
 
 
-_MS = re.compile(r"^\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*ms\s*$")
+@dataclass(frozen=True)
+class Milliseconds:
+    """A readout time in milliseconds, a fraction of the frame interval once the rate is known.
+
+    Examples
+    --------
+    >>> Milliseconds(36.0).ratio(25.0)
+    0.9
+    """
+
+    value: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.value) and self.value > 0):
+            raise SettingsError(f"readout {self.value:g} ms must be a positive time")
+
+    def ratio(self, fps: float) -> float:
+        """Return the readout as a fraction of the frame interval at ``fps``.
+
+        Raises
+        ------
+        SettingsError
+            If that fraction is outside ``(0, 1]``.
+        """
+        value = round(self.value * 1e-3 * float(fps), 6)
+        if not 0.0 < value <= 1.0:
+            raise SettingsError(
+                f"readout {self.value:g} ms is {value:.3f} of the frame interval at "
+                f"{fps:g} fps, outside (0, 1]")
+        return value
+
+    def __str__(self) -> str:
+        return f"{self.value:g}ms"
+
+
+#: What a user may ask for as a readout: a fraction, a time, or ``"auto"``.
+ReadoutRequest = float | Milliseconds | Literal["auto"]
+
+
+def readout_request(value: float | str | Milliseconds) -> ReadoutRequest:
+    """Parse a readout as a user gives it, once: a fraction, ``"15.7ms"`` or ``"auto"``.
+
+    Parameters
+    ----------
+    value : float, str or Milliseconds
+        ``0.9`` or ``"0.9"`` (fraction of the frame interval), ``"15.7ms"``, or
+        ``"auto"`` (case-insensitive).
+
+    Returns
+    -------
+    float, Milliseconds or 'auto'
+        A fraction is checked to lie in ``(0, 1]``; a time to be positive (it becomes a
+        fraction with the clip's frame rate, :meth:`Milliseconds.ratio`).
+
+    Raises
+    ------
+    SettingsError
+        If the value is none of these.
+
+    Examples
+    --------
+    >>> readout_request("36ms"), readout_request(" AUTO "), readout_request("0.9")
+    (Milliseconds(value=36.0), 'auto', 0.9)
+    """
+    if isinstance(value, Milliseconds):
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise SettingsError(f"readout must be a number, a time like 15.7ms or 'auto', "
+                            f"not {value!r}")
+    if isinstance(value, str):
+        text = value.strip()
+        if text.lower() == "auto":
+            return "auto"
+        m = _MS.match(text)
+        if m:
+            return Milliseconds(float(m.group(1)))
+        try:
+            number = float(text)
+        except ValueError:
+            raise SettingsError(f"cannot parse readout {value!r}: give a fraction like 0.9, "
+                                "a time like 15.7ms, or auto") from None
+    else:
+        number = float(value)
+    if not (np.isfinite(number) and 0.0 < number <= 1.0):
+        raise SettingsError(f"readout {value!r} is outside (0, 1] of the frame interval "
+                            "(a time needs 'ms', e.g. 15.7ms)")
+    return number
 
 
 def parse_readout(text: str | float, fps: float | None = None) -> float:
-    """Parse a readout given as a fraction of the frame interval or in milliseconds.
+    """Return a readout given as a fraction or in milliseconds as a fraction in ``(0, 1]``.
 
     Parameters
     ----------
@@ -133,37 +223,20 @@ def parse_readout(text: str | float, fps: float | None = None) -> float:
     fps : float, optional
         Nominal frame rate, needed to turn milliseconds into a fraction.
 
-    Returns
-    -------
-    float
-        The readout ratio ``rho`` in ``(0, 1]``.
-
     Raises
     ------
     SettingsError
-        If the value cannot be parsed or is outside ``(0, 1]``.
+        If the value cannot be parsed, is ``"auto"``, or is outside ``(0, 1]``.
     """
-    if isinstance(text, (int, float)):
-        value = float(text)
-    else:
-        m = _MS.match(text)
-        if m:
-            if not fps:
-                raise SettingsError("a readout in milliseconds needs the clip's frame rate")
-            value = round(float(m.group(1)) * 1e-3 * float(fps), 6)
-        else:
-            try:
-                value = float(text)
-            except ValueError:
-                raise SettingsError(
-                    f"cannot parse readout {text!r}: give a fraction like 0.9 or a time like 15.7ms"
-                ) from None
-    if not np.isfinite(value) or not (0.0 < value <= 1.0):
-        raise SettingsError(
-            f"readout {text!r} is outside (0, 1] of the frame interval"
-            + (f" ({value:.3f} at {fps:g} fps)" if fps and isinstance(text, str) else "")
-        )
-    return value
+    req = readout_request(text)
+    if req == "auto":
+        raise SettingsError("readout 'auto' is decided from the clip "
+                            "(unjello.config.resolve_timing), not parsed")
+    if isinstance(req, Milliseconds):
+        if not fps:
+            raise SettingsError("a readout in milliseconds needs the clip's frame rate")
+        return req.ratio(fps)
+    return float(req)
 
 
 def to_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:
@@ -215,3 +288,16 @@ def from_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:
     else:
         raise SettingsError(f"unknown direction {direction!r}")
     return np.ascontiguousarray(out)
+
+
+def pixel_grid(height: int, width: int, top: int = 0, left: int = 0
+               ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """Column and row coordinates (float32, broadcast views) of a ``height x width`` block.
+
+    ``top`` and ``left`` offset them (a crop of a larger frame).
+    """
+    gx = np.broadcast_to(np.arange(left, left + width, dtype=np.float32)[None, :],
+                         (height, width))
+    gy = np.broadcast_to(np.arange(top, top + height, dtype=np.float32)[:, None],
+                         (height, width))
+    return gx, gy

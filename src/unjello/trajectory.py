@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,7 +33,8 @@ import numpy as np
 from .errors import InputError
 from .timing import SensorTiming
 
-__all__ = ["FrameMotion", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION"]
+__all__ = ["FrameMotion", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
+           "scanline_displacement"]
 
 SCHEMA_VERSION = 1
 FIELD_STEP = 8
@@ -214,10 +214,6 @@ class Trajectory:
             raise InputError(f"cannot read trajectory {path}: {exc}") from None
         return cls.from_json(doc)
 
-    def extend(self, frames: Iterable[FrameMotion]) -> None:
-        """Append frames."""
-        self.frames.extend(frames)
-
 
 class TrajectoryWriter:
     """Write a trajectory JSON frame by frame (constant memory), atomically.
@@ -257,3 +253,40 @@ class TrajectoryWriter:
         """Drop the partial file."""
         self._f.close()
         self._tmp.unlink(missing_ok=True)
+
+
+def scanline_displacement(velocity: np.ndarray, timing: SensorTiming) -> np.ndarray:
+    """Integrate per-scanline velocity from the reference time (eq. 26).
+
+    Parameters
+    ----------
+    velocity : ndarray of shape (h, 2)
+        ``v'(t_r)`` for every scanline ``r``, px per frame interval.
+    timing : SensorTiming
+        Readout ratio and reference scanline.
+
+    Returns
+    -------
+    ndarray of shape (h, 2)
+        ``Delta(r) = integral from t_ref to t_r of v'(t) dt`` (trapezoid rule on the
+        scanline grid, whose step is ``rho / h``).
+
+    Examples
+    --------
+    A constant velocity of 3 px per frame with a full readout moves the last of 5 rows
+    by ``3 * 2/5`` relative to the middle row:
+
+    >>> d = scanline_displacement(np.tile([3.0, 0.0], (5, 1)), SensorTiming(1.0))
+    >>> np.round(d[:, 0], 3).tolist()
+    [-1.2, -0.6, 0.0, 0.6, 1.2]
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    h = v.shape[0]
+    dt = timing.readout / h
+    cum = np.zeros_like(v)
+    if h > 1:
+        cum[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
+    ref = timing.reference_row(h)
+    rows = np.arange(h, dtype=np.float64)
+    at_ref = np.array([np.interp(ref, rows, cum[:, k]) for k in range(2)])
+    return cum - at_ref

@@ -7,7 +7,7 @@ pixel ``s`` of frame ``n`` belongs at (eq. 26, in our time unit and readout ``rh
 
 where ``t_ref`` is the time of the reference scanline (the middle one in the paper, or
 the first). The integral, ``Delta(s_y)``, depends only on the row, so all pixels of a
-scanline move together (:func:`scanline_displacement`). Two ways to apply it:
+scanline move together (:func:`~unjello.trajectory.scanline_displacement`). Two ways to apply it:
 
 * :func:`splat` -- the paper's forward mapping: the intensity of ``s`` is given to the
   four grid points nearest ``p``, each weighted inversely to its distance to ``p``;
@@ -26,53 +26,18 @@ from typing import Literal
 
 import cv2
 import numpy as np
-import numpy.typing as npt
 
-from .timing import SensorTiming
+from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
+from .trajectory import FrameMotion
 
-__all__ = ["Fill", "WarpMode", "pixel_grid", "scanline_displacement", "resample_displacement",
+__all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
            "splat", "remap", "apply_maps", "fill_holes", "field_maps",
            "resize_maps", "remap_maps", "neighbour_sources", "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
-
-
-def scanline_displacement(velocity: np.ndarray, timing: SensorTiming) -> np.ndarray:
-    """Integrate per-scanline velocity from the reference time (eq. 26).
-
-    Parameters
-    ----------
-    velocity : ndarray of shape (h, 2)
-        ``v'(t_r)`` for every scanline ``r``, px per frame interval.
-    timing : SensorTiming
-        Readout ratio and reference scanline.
-
-    Returns
-    -------
-    ndarray of shape (h, 2)
-        ``Delta(r) = integral from t_ref to t_r of v'(t) dt`` (trapezoid rule on the
-        scanline grid, whose step is ``rho / h``).
-
-    Examples
-    --------
-    A constant velocity of 3 px per frame with a full readout moves the last of 5 rows
-    by ``3 * 2/5`` relative to the middle row:
-
-    >>> d = scanline_displacement(np.tile([3.0, 0.0], (5, 1)), SensorTiming(1.0))
-    >>> np.round(d[:, 0], 3).tolist()
-    [-1.2, -0.6, 0.0, 0.6, 1.2]
-    """
-    v = np.asarray(velocity, dtype=np.float64)
-    h = v.shape[0]
-    dt = timing.readout / h
-    cum = np.zeros_like(v)
-    if h > 1:
-        cum[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
-    ref = timing.reference_row(h)
-    rows = np.arange(h, dtype=np.float64)
-    at_ref = np.array([np.interp(ref, rows, cum[:, k]) for k in range(2)])
-    return cum - at_ref
+FILLS: tuple[str, ...] = ("nearest", "black")
+WARPS: tuple[str, ...] = ("remap", "splat")
 
 
 def resample_displacement(displacement: np.ndarray, height: int, width_scale: float,
@@ -163,7 +128,7 @@ def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
     image : ndarray of shape (h, w[, c])
         Frame in top-bottom orientation.
     displacement : ndarray of shape (h, 2)
-        Per-scanline ``Delta`` from :func:`scanline_displacement`.
+        Per-scanline ``Delta`` from :func:`~unjello.trajectory.scanline_displacement`.
     fill : {'nearest', 'black'}
         What to put where no scanline lands.
 
@@ -289,19 +254,6 @@ def splat(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest",
         info = np.iinfo(image.dtype)
         out = np.clip(np.rint(out), info.min, info.max)
     return out.astype(image.dtype), valid
-
-
-def pixel_grid(height: int, width: int, top: int = 0, left: int = 0
-               ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
-    """Column and row coordinates (float32, broadcast views) of a ``height x width`` block.
-
-    ``top`` and ``left`` offset them (a crop of a larger frame).
-    """
-    gx = np.broadcast_to(np.arange(left, left + width, dtype=np.float32)[None, :],
-                         (height, width))
-    gy = np.broadcast_to(np.arange(top, top + height, dtype=np.float32)[:, None],
-                         (height, width))
-    return gx, gy
 
 
 def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
@@ -474,3 +426,95 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
         if ys.size:
             out[ys, xs] = _sample(planes[k], nx, ny)
     return out
+
+
+class PictureWarper:
+    """Apply one frame's motion to every plane of a picture: the per-frame warp policy.
+
+    A *picture* is a list of planes in coded orientation; the first is the luma (or a
+    colour image). Every plane is turned to top-bottom readout, warped by the same
+    displacement scaled to its size (4:2:0 chroma included) and turned back. A per-pixel
+    motion (``field``) is applied by backward maps (:func:`field_maps`); a per-scanline
+    one by :func:`remap_maps` or, with ``warp='splat'``, by the paper's forward
+    splatting (:func:`splat`). With ``fill='nearest'`` and a dense motion's neighbour
+    flows, what the frame does not see is taken from its neighbours
+    (:func:`fill_from_neighbours`) instead of repeating the edge.
+
+    Parameters
+    ----------
+    timing : SensorTiming
+        Its scan direction turns the planes.
+    warp : {'remap', 'splat'}
+    fill : {'nearest', 'black'}
+    """
+
+    def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest"
+                 ) -> None:
+        self.direction = timing.direction
+        self.warp, self.fill = warp, fill
+        self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, planes: list[np.ndarray], motion: FrameMotion,
+                 around: dict[int, list[np.ndarray] | None] | None = None
+                 ) -> list[np.ndarray]:
+        """Warp a picture by its frame's motion.
+
+        Parameters
+        ----------
+        planes : list of ndarray
+            The picture, coded orientation.
+        motion : FrameMotion
+            Its motion (per scanline, or per pixel with ``field``).
+        around : dict, optional
+            Frame offset (-1, 1) -> that neighbour's planes, for filling.
+
+        Returns
+        -------
+        list of ndarray
+            The corrected planes, same shapes and dtypes.
+        """
+        d = self.direction
+        fill: Fill = "black" if self.fill == "black" else "nearest"
+        h, w = to_top_bottom(planes[0], d).shape[:2]
+        maps = field_maps(motion.field, frame=(h, w)) if motion.field is not None else None
+        sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        sources: list[tuple[list[np.ndarray], np.ndarray]] = []
+        parts: dict[tuple[int, int], list] = {}
+        if around and fill == "nearest":
+            for k, flow in motion.neighbours:
+                pic = around.get(k)
+                if pic is not None:
+                    sources.append((pic, flow))
+        out = []
+        for i, plane in enumerate(planes):
+            tb = to_top_bottom(plane, d)
+            ph, pw = tb.shape[:2]
+            if maps is None and self.warp == "splat":
+                res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
+            else:
+                if (ph, pw) not in sized:  # U and V share their maps
+                    sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
+                        remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
+                                   out=self._buffer(ph, pw)))
+                res = apply_maps(tb, sized[(ph, pw)], fill=fill)
+                if maps is not None and sources:
+                    if (ph, pw) not in parts:
+                        parts[(ph, pw)] = neighbour_sources(
+                            sized[(ph, pw)], [flow for _, flow in sources], maps)
+                    res = fill_from_neighbours(
+                        res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
+            out.append(from_top_bottom(res, d))
+        return out
+
+    def _buffer(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+        """Map buffers for planes of ``h x w``, reused from frame to frame."""
+        if (h, w) not in self._buffers:
+            self._buffers[(h, w)] = (np.empty((h, w), np.float32), np.empty((h, w), np.float32))
+        return self._buffers[(h, w)]
+
+
+def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:
+    """Return the per-scanline displacement for a plane of ``ph x pw`` (4:2:0 chroma)."""
+    if (ph, pw) == (h, w):
+        return motion.displacement
+    return resample_displacement(motion.displacement, ph, pw / w, ph / h)

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from unjello.config import CorrectionConfig
 from unjello.errors import InputError
 from unjello.io.frames import list_frames, read_image, write_image
 from unjello.pipeline import correct_video
@@ -15,7 +16,7 @@ def test_two_frame_folder_in_two_frame_folder_out(tmp_path, scene):
     for name, s in zip(["rs_0.png", "rs_1.png"], sim, strict=True):
         write_image(src / name, s.rolling)
     dst = tmp_path / "out"
-    traj = correct_video(src, dst, readout=1.0)
+    traj = correct_video(src, dst, CorrectionConfig(readout=1.0))
     assert sorted(p.name for p in dst.iterdir()) == ["rs_0.png", "rs_1.png"]
     assert len(traj) == 2
     err = np.abs(traj.frames[1].displacement - sim[1].motion.displacement).mean()

@@ -2,6 +2,7 @@ import av
 import numpy as np
 import pytest
 
+from unjello.config import CorrectionConfig
 from unjello.errors import InputError, OutputError
 from unjello.io.video import probe
 from unjello.pipeline import correct_video
@@ -13,7 +14,7 @@ def test_audio_pts_and_count_kept(tmp_path, scene):
     src, dst = tmp_path / "in.mp4", tmp_path / "out.mp4"
     make_clip(src, scene, n=10)
     before = src.read_bytes()
-    traj = correct_video(src, dst, readout=1.0)
+    traj = correct_video(src, dst, CorrectionConfig(readout=1.0))
     assert src.read_bytes() == before  # input untouched
     assert len(traj) == 10
     assert video_pts(dst) == video_pts(src)
@@ -36,7 +37,7 @@ def test_variable_frame_rate_pts_kept(tmp_path, scene):
 def test_rotation_and_colour_kept(tmp_path, scene):
     src, dst = tmp_path / "rot.mp4", tmp_path / "out.mp4"
     make_clip(src, scene, n=6, rotation=90, audio=False)
-    correct_video(src, dst, direction="top-bottom")
+    correct_video(src, dst, CorrectionConfig(direction="top-bottom"))
     a, b = probe(src), probe(dst)
     assert b.rotation == a.rotation == 90
     assert (b.width, b.height) == (a.width, a.height)  # coded orientation kept
@@ -46,7 +47,7 @@ def test_rotation_and_colour_kept(tmp_path, scene):
 def test_correction_improves_the_video(tmp_path, scene):
     src, dst = tmp_path / "in.mp4", tmp_path / "out.mp4"
     make_clip(src, scene, n=8, speed=7.0, audio=False)
-    traj = correct_video(src, dst, readout="33.333ms")
+    traj = correct_video(src, dst, CorrectionConfig(readout="33.333ms"))
     assert traj.timing.readout == pytest.approx(1.0, abs=1e-3)
     v = np.array([f.velocity[:, 0].mean() for f in traj.frames])
     assert np.allclose(v, 7.0, atol=0.3)

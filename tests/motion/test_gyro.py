@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from unjello.errors import InputError, SettingsError
+from unjello.io.sidecars import read_gyro
 from unjello.metrics import displacement_error
 from unjello.motion.gyro import (
     GyroCalibration,
@@ -12,7 +13,6 @@ from unjello.motion.gyro import (
     GyroMethod,
     axes_matrix,
     gyro_field,
-    read_gyro,
 )
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
@@ -162,6 +162,6 @@ def test_footage_without_texture_or_motion_says_what_to_give(frame, scene):
     t = np.arange(0, 3, 1 / 400)
     log = GyroLog(t, np.random.default_rng(0).normal(0, 0.05, (t.size, 3)))
     method = GyroMethod(SensorTiming(1.0), log, GyroConfig(sync_frames=10), fps=30.0)
-    with pytest.raises(InputError, match="give --gyro-offset"):
+    with pytest.raises(InputError, match="give gyro_offset="):
         for i in range(10):
             method.push(img, float(i))

@@ -20,7 +20,7 @@ from pathlib import Path
 import av
 import numpy as np
 
-from ..errors import InputError, OutputError
+from ..errors import InputError, OutputError, SettingsError
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
            "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags"]
@@ -57,6 +57,10 @@ class EncodeOptions:
     codec: str = "libx264"
     crf: int = 18
     preset: str = "medium"
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.crf <= 51:
+            raise SettingsError(f"crf must be 0 to 51, got {self.crf}")
 
 
 def _open(path: str | os.PathLike) -> av.container.InputContainer:

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..errors import SettingsError
+
 __all__ = ["BlockMatchConfig", "BlockVectors", "GlobalMotion", "block_match", "histogram_peak",
            "global_motion", "subpixel_offsets"]
 
@@ -53,6 +55,12 @@ class BlockMatchConfig:
     search: int = 160
     min_std: float = 2.0
     sigma: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.search <= 1000:
+            raise SettingsError(f"search range must be 1 to 1000 px, got {self.search}")
+        if self.block < 4:
+            raise SettingsError(f"block size must be at least 4 px, got {self.block}")
 
 
 @dataclass(frozen=True)

@@ -29,10 +29,8 @@ row, roll (``dx ~ -c (y - c_y)``) included.
 from __future__ import annotations
 
 import itertools
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -42,10 +40,10 @@ from scipy.spatial.transform import Rotation
 from ..errors import InputError, SettingsError
 from ..timing import SensorTiming
 from ..trajectory import FIELD_STEP, FrameMotion
-from .dense import landing, optical_flow, row_flows
+from .flow import landing, optical_flow, row_flows
 
-__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "read_gyro", "write_gyro",
-           "axes_matrix", "calibrate", "gyro_field"]
+__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "axes_matrix",
+           "calibrate", "gyro_field"]
 
 # Flow for the calibration is computed on copies at most this wide (DIS medium at its
 # full resolution there).
@@ -100,85 +98,6 @@ class GyroLog:
                          for i in range(3)], axis=-1)
 
 
-def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> GyroLog:
-    """Read a text or CSV gyro log: one sample per line, a time and three rates.
-
-    Columns may be separated by commas, semicolons, tabs or spaces; lines that are not
-    numbers (a header, ``#`` comments) are skipped.
-
-    Parameters
-    ----------
-    path : path-like
-        The log.
-    layout : str
-        The first four columns' meaning, e.g. ``"t,x,y,z"`` or ``"x,y,z,t"``; ``"auto"``
-        takes the one strictly increasing column of the first four as the time and the
-        others, in order, as x, y, z.
-    units : {'rad', 'deg'}
-        Unit of the rates (per second).
-
-    Returns
-    -------
-    GyroLog
-        The time unit is read off the sampling interval: seconds below 50 ms, then
-        milliseconds, microseconds, nanoseconds (IMUs sample at 100 Hz - 8 kHz).
-
-    Raises
-    ------
-    InputError
-        Not a readable log of four numeric columns.
-    """
-    p = Path(path)
-    try:
-        text = p.read_text(errors="replace")
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read the gyro log ({exc.strerror or exc})") from None
-    rows = []
-    for line in text.splitlines():
-        parts = [v for v in re.split(r"[,;\s]+", line.strip()) if v]
-        try:
-            vals = [float(v) for v in parts[:4]]
-        except ValueError:
-            continue
-        if len(vals) == 4:
-            rows.append(vals)
-    if len(rows) < 10:
-        raise InputError(f"{p}: not a gyro log (need lines of a time and three angular "
-                         f"rates; found {len(rows)})")
-    data = np.asarray(rows)
-    if layout == "auto":
-        rising = [i for i in range(4) if np.all(np.diff(data[:, i]) > 0)]
-        if not rising:
-            raise InputError(f"{p}: no column of increasing times; give the layout "
-                             "(e.g. --gyro-layout t,x,y,z)")
-        names = ["x", "y", "z"]
-        order = {rising[0]: "t"}
-        order.update({i: names.pop(0) for i in range(4) if i != rising[0]})
-        cols = [order[i] for i in range(4)]
-    else:
-        cols = [c.strip().lower() for c in layout.split(",")]
-        if sorted(cols) != ["t", "x", "y", "z"]:
-            raise SettingsError(f"gyro layout must name t, x, y and z once each, got {layout!r}")
-    t = data[:, cols.index("t")]
-    rate = data[:, [cols.index(a) for a in "xyz"]]
-    if units not in ("rad", "deg"):
-        raise SettingsError(f"gyro units must be 'rad' or 'deg', got {units!r}")
-    if units == "deg":
-        rate = np.deg2rad(rate)
-    dt = float(np.median(np.diff(t)))
-    if dt <= 0:
-        raise InputError(f"{p}: gyro sample times must increase")
-    scale = next(s for limit, s in ((0.05, 1.0), (50.0, 1e-3), (5e4, 1e-6), (np.inf, 1e-9))
-                 if dt < limit)
-    return GyroLog(t * scale, rate)
-
-
-def write_gyro(path: str | Path, time: np.ndarray, rate: np.ndarray) -> None:
-    """Write a log :func:`read_gyro` reads: CSV with a ``t,x,y,z`` header, seconds, rad/s."""
-    np.savetxt(path, np.column_stack([time, rate]), delimiter=",", fmt="%.9g",
-               header="t,x,y,z", comments="")
-
-
 def axes_matrix(spec: str) -> np.ndarray:
     """Camera-from-gyro axis mapping from three letters, e.g. ``"XYZ"`` or ``"Xzy"``.
 
@@ -209,7 +128,8 @@ class GyroConfig:
     Parameters
     ----------
     path : str, optional
-        The gyro log (:func:`read_gyro`).
+        The gyro log (read by :func:`unjello.io.sidecars.read_gyro`; default the
+        ``NAME.gyro.csv`` beside the clip).
     layout : str
         Column layout of the log, or ``"auto"``.
     units : {'rad', 'deg'}
@@ -222,8 +142,6 @@ class GyroConfig:
     focal : float, optional
         Focal length in pixels of the full frame; found by :func:`calibrate` if not
         given.
-    fps : float
-        Frame rate, for a folder of frames (a video states its own).
     sync_frames : int
         Frames at the start of the clip whose motion calibrates the log (they are held
         until then); at least 30 tell a log of the clip from another one.
@@ -235,7 +153,6 @@ class GyroConfig:
     axes: str = "auto"
     offset: float | None = None
     focal: float | None = None
-    fps: float = 30.0
     sync_frames: int = 60
 
     def __post_init__(self) -> None:
@@ -243,8 +160,6 @@ class GyroConfig:
             axes_matrix(self.axes)
         if self.focal is not None and not self.focal > 0:
             raise SettingsError(f"focal length must be positive, got {self.focal}")
-        if not self.fps > 0:
-            raise SettingsError(f"frame rate must be positive, got {self.fps}")
         if self.sync_frames < 3:
             raise SettingsError("gyro calibration needs at least 3 frames")
 
@@ -360,10 +275,10 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
     h, w = size
     if rows.row.size < 16:
         raise InputError("too little texture in the first frames to calibrate the gyro log; "
-                         "give --gyro-offset, --gyro-axes and --focal")
+                         "give gyro_offset=, gyro_axes= and focal=")
     if np.sqrt(np.average(np.sum(rows.flow ** 2, axis=1), weights=rows.weight)) < 0.1:
         raise InputError("the footage hardly moves in its first frames: nothing to calibrate "
-                         "the gyro log against; give --gyro-offset, --gyro-axes and --focal")
+                         "the gyro log against; give gyro_offset=, gyro_axes= and focal=")
     cy = (h - 1) / 2.0
     T, rho = frame_interval, timing.readout
     axes_list = ([axes_matrix(config.axes)] if config.axes != "auto" else _candidate_axes())
@@ -437,7 +352,7 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
                 result = (float(o), m, f, agree)
     if result is None or result[3] < _AGREEMENT:
         raise InputError("the gyro log does not explain the footage's motion (check the log "
-                         "belongs to this clip, its layout and --gyro-units)")
+                         "belongs to this clip, its gyro_layout= and gyro_units=)")
     return GyroCalibration(axes=result[1], offset=result[0], focal=result[2],
                            agreement=result[3])
 
@@ -532,16 +447,18 @@ class GyroMethod:
         The gyro samples.
     config : GyroConfig
         What is known of the log; the rest is calibrated.
-    fps : float, optional
-        Frame rate; default ``config.fps``.
+    fps : float
+        Frame rate of the clip (the unit of ``start`` is its frame interval).
     """
 
     def __init__(self, timing: SensorTiming, log: GyroLog, config: GyroConfig = GyroConfig(),
-                 fps: float | None = None) -> None:
+                 fps: float = 30.0) -> None:
         self.timing = timing
         self.log = log
         self.config = config
-        self.frame_interval = 1.0 / float(fps or config.fps)
+        if not fps > 0:
+            raise SettingsError(f"frame rate must be positive, got {fps}")
+        self.frame_interval = 1.0 / float(fps)
         self.calibration: GyroCalibration | None = None
         if config.axes != "auto" and config.offset is not None and config.focal is not None:
             self.calibration = GyroCalibration(axes_matrix(config.axes), config.offset,
@@ -613,12 +530,3 @@ class GyroMethod:
                                    note="; ".join(notes), field=fld, neighbours=around))
             self._next += 1
         return out
-
-
-def load_method(timing: SensorTiming, config: GyroConfig, fps: float | None
-                ) -> GyroMethod:
-    """Read ``config.path`` and build the method (the pipeline's entry point)."""
-    if not config.path:
-        raise SettingsError("the gyro method needs a gyro log (--gyro FILE)")
-    return GyroMethod(timing, read_gyro(config.path, config.layout, config.units), config, fps)
-

@@ -33,8 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..timing import SensorTiming
-from ..trajectory import FrameMotion
-from ..warp import scanline_displacement
+from ..trajectory import FrameMotion, scanline_displacement
 from .global_motion import BlockMatchConfig, global_motion
 from .refine import (
     RefineConfig,

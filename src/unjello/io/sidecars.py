@@ -1,0 +1,217 @@
+"""Files beside a clip, and what a clip's own metadata states.
+
+* The readout a sidecar or the file states (:func:`stated_readout`).
+* Gyro logs: finding a clip's own (``NAME.gyro.csv``, :func:`find_gyro_log`), reading
+  (:func:`read_gyro`) and writing (:func:`write_gyro`) them. The gyro method
+  (:mod:`unjello.motion.gyro`) takes the samples as arrays and touches no files.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, SettingsError
+from ..motion.gyro import GyroLog
+
+__all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "read_gyro", "write_gyro"]
+
+
+@dataclass(frozen=True)
+class StatedReadout:
+    """A readout time stated by the file or a sidecar.
+
+    Attributes
+    ----------
+    milliseconds : float
+    source : str
+        Where it was found (for the user).
+    """
+
+    milliseconds: float
+    source: str
+
+
+def _find_readout_key(obj: object, depth: int = 0) -> float | None:
+    """First numeric value under a key naming the readout time (ms), in nested data."""
+    if depth > 6:
+        return None
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            key = str(k).lower().replace(" ", "_")
+            if "readout" in key and not isinstance(v, (dict, list)):
+                try:
+                    value = float(str(v).lower().replace("ms", "").strip())
+                except ValueError:
+                    continue
+                if "us" in key or "micro" in key:
+                    value /= 1000.0
+                if value > 0:
+                    return value
+        for v in obj.values():
+            found = _find_readout_key(v, depth + 1)
+            if found is not None:
+                return found
+    elif isinstance(obj, list):
+        for v in obj[:50]:
+            found = _find_readout_key(v, depth + 1)
+            if found is not None:
+                return found
+    return None
+
+
+def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
+    """Readout time stated for a video by a sidecar file or its metadata, if any.
+
+    Looked up, in order:
+
+    1. A JSON sidecar beside the video -- ``NAME.readout.json``, ``NAME.json`` or
+       ``STEM.json`` -- with a key naming the readout in ms, such as Gyroflow's
+       ``frame_readout_time`` (lens profiles and project files) or ``readout_ms``.
+    2. Container and stream metadata tags whose name contains ``readout`` (ms).
+    3. With the optional ``telemetry-parser`` package (``pip install 'unjello[gyro]'``),
+       the camera metadata it decodes (Sony, GoPro, DJI, ...), searched the same way.
+
+    Parameters
+    ----------
+    path : path-like
+        The video (or frame folder: sidecars only).
+
+    Returns
+    -------
+    StatedReadout or None
+    """
+    p = Path(path)
+    for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
+                 p.with_suffix(".json")):
+        if side != p and side.is_file():
+            try:
+                value = _find_readout_key(json.loads(side.read_text()))
+            except (OSError, ValueError):
+                value = None
+            if value is not None:
+                return StatedReadout(value, f"sidecar {side.name}")
+    if not p.is_file():
+        return None
+    from .video import metadata_tags
+
+    value = _find_readout_key(metadata_tags(p))
+    if value is not None:
+        return StatedReadout(value, "container metadata")
+    try:
+        import telemetry_parser
+    except ImportError:
+        return None
+    try:
+        tp = telemetry_parser.Parser(str(p))
+        value = _find_readout_key(tp.telemetry(human_readable=True))
+    except Exception:  # noqa: BLE001 - vendor parsers fail on many files; then nothing
+        return None
+    if value is not None:
+        return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
+    return None
+
+
+def find_gyro_log(src: str | os.PathLike) -> Path:
+    """Return the gyro log beside a clip: ``NAME.gyro.csv`` or ``NAME.gyro.txt``.
+
+    This is how the gyro method finds a clip's log when none is given (and how a batch
+    finds each clip's).
+
+    Raises
+    ------
+    SettingsError
+        If there is none.
+    """
+    src = Path(src)
+    base = src.with_suffix("") if src.is_file() else src
+    for ext in (".gyro.csv", ".gyro.txt"):
+        cand = base.with_name(base.name + ext)
+        if cand.is_file():
+            return cand
+    raise SettingsError(f"the gyro method needs a gyro log: pass gyro=FILE or put "
+                        f"{base.name}.gyro.csv beside {src.name}")
+
+
+def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> GyroLog:
+    """Read a text or CSV gyro log: one sample per line, a time and three rates.
+
+    Columns may be separated by commas, semicolons, tabs or spaces; lines that are not
+    numbers (a header, ``#`` comments) are skipped.
+
+    Parameters
+    ----------
+    path : path-like
+        The log.
+    layout : str
+        The first four columns' meaning, e.g. ``"t,x,y,z"`` or ``"x,y,z,t"``; ``"auto"``
+        takes the one strictly increasing column of the first four as the time and the
+        others, in order, as x, y, z.
+    units : {'rad', 'deg'}
+        Unit of the rates (per second).
+
+    Returns
+    -------
+    GyroLog
+        The time unit is read off the sampling interval: seconds below 50 ms, then
+        milliseconds, microseconds, nanoseconds (IMUs sample at 100 Hz - 8 kHz).
+
+    Raises
+    ------
+    InputError
+        Not a readable log of four numeric columns.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(errors="replace")
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read the gyro log ({exc.strerror or exc})") from None
+    rows = []
+    for line in text.splitlines():
+        parts = [v for v in re.split(r"[,;\s]+", line.strip()) if v]
+        try:
+            vals = [float(v) for v in parts[:4]]
+        except ValueError:
+            continue
+        if len(vals) == 4:
+            rows.append(vals)
+    if len(rows) < 10:
+        raise InputError(f"{p}: not a gyro log (need lines of a time and three angular "
+                         f"rates; found {len(rows)})")
+    data = np.asarray(rows)
+    if layout == "auto":
+        rising = [i for i in range(4) if np.all(np.diff(data[:, i]) > 0)]
+        if not rising:
+            raise InputError(f"{p}: no column of increasing times; give the layout "
+                             "(e.g. gyro_layout=t,x,y,z)")
+        names = ["x", "y", "z"]
+        order = {rising[0]: "t"}
+        order.update({i: names.pop(0) for i in range(4) if i != rising[0]})
+        cols = [order[i] for i in range(4)]
+    else:
+        cols = [c.strip().lower() for c in layout.split(",")]
+        if sorted(cols) != ["t", "x", "y", "z"]:
+            raise SettingsError(f"gyro layout must name t, x, y and z once each, got {layout!r}")
+    t = data[:, cols.index("t")]
+    rate = data[:, [cols.index(a) for a in "xyz"]]
+    if units not in ("rad", "deg"):
+        raise SettingsError(f"gyro units must be 'rad' or 'deg', got {units!r}")
+    if units == "deg":
+        rate = np.deg2rad(rate)
+    dt = float(np.median(np.diff(t)))
+    if dt <= 0:
+        raise InputError(f"{p}: gyro sample times must increase")
+    scale = next(s for limit, s in ((0.05, 1.0), (50.0, 1e-3), (5e4, 1e-6), (np.inf, 1e-9))
+                 if dt < limit)
+    return GyroLog(t * scale, rate)
+
+
+def write_gyro(path: str | Path, time: np.ndarray, rate: np.ndarray) -> None:
+    """Write a log :func:`read_gyro` reads: CSV with a ``t,x,y,z`` header, seconds, rad/s."""
+    np.savetxt(path, np.column_stack([time, rate]), delimiter=",", fmt="%.9g",
+               header="t,x,y,z", comments="")

@@ -1,0 +1,243 @@
+"""The camera's image-plane trajectory at scanline resolution, from row-flow equations.
+
+Row ``y`` of frame ``k`` is imaged at ``t = t_k + rho y / h`` (the paper's eq. 10 with
+readout ``rho``); its content was at row ``y + f_y`` of frame ``k - 1``, imaged at
+``t' = t_{k-1} + rho (y + f_y) / h``. The robust flow of each row gives one equation
+``c(t) - c(t') = -f`` on the trajectory ``c``, sampled on a fine time grid.
+:func:`solve_camera_trajectory` solves all of a window's equations together by
+regularised least squares (a penalty on the second difference of ``c``), with a row
+velocity for what varies along the frame but not over time, and optional sinusoids
+for vibration (:mod:`unjello.motion.vibration`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+from threadpoolctl import ThreadpoolController
+
+__all__ = ["BLAS", "SINE_RIDGE", "CameraSolution", "solve_camera_trajectory"]
+
+# The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
+# BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
+BLAS = ThreadpoolController()
+
+# Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight, in
+# their choice and their solve. Measured (benchmarks/synthetic.py, --vibration on): 1e-6
+# let sinusoids near the frame rate, which the frame differences barely see, fit noise
+# (diagonal pan 4.1x, moving object 1.3x the uncorrected error); 1e-3 is as safe as no
+# sinusoids on every case and gives the 2 s jello clip 0.090x (0.182x without; 0.099x
+# as shipped, picking every 8 frames from every 4th row); 3e-3 0.125x, 1e-2 0.146x.
+SINE_RIDGE = 1e-3
+
+def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,
+                                                                                  np.ndarray,
+                                                                                  np.ndarray]:
+    """Return indices and weights of linear interpolation of grid values at ``times``."""
+    u = np.clip((times - t0) / step, 0, n - 1 - 1e-9)
+    i0 = np.floor(u).astype(np.int64)
+    f = u - i0
+    return i0, 1.0 - f, f
+
+
+def _second_difference_band(n: int) -> np.ndarray:
+    """``D2^T D2`` for the second-difference operator on ``n`` samples, as a 3-row upper band.
+
+    Row ``2 - d`` holds the ``d``-th superdiagonal (LAPACK's upper band storage, right
+    aligned): the diagonal is ``1, 5, 6, ..., 6, 5, 1``, the first superdiagonal
+    ``-2, -4, ..., -4, -2``, the second all ones.
+    """
+    band = np.zeros((3, n))
+    if n >= 3:
+        ones = np.ones(n - 2)
+        band[2] = np.convolve(ones, [1.0, 4.0, 1.0])
+        band[1, 1:] = np.convolve(ones, [-2.0, -2.0])
+        band[0, 2:] = ones
+    return band
+
+
+def _band_to_dense(band: np.ndarray) -> np.ndarray:
+    """Return the symmetric matrix whose upper band (LAPACK storage) is ``band``."""
+    bw, n = band.shape[0] - 1, band.shape[1]
+    full = np.zeros((n, n))
+    for d in range(bw + 1):
+        full[np.arange(n - d), np.arange(d, n)] = band[bw - d, d:]
+    return full + np.triu(full, 1).T
+
+
+def _solve_bordered_banded(band: np.ndarray, b: np.ndarray, c: np.ndarray,
+                           rhs: np.ndarray) -> np.ndarray:
+    """Solve ``[[a, b], [b^T, c]] x = rhs`` with ``a`` banded and symmetric positive definite.
+
+    ``a`` is given by its upper band (LAPACK storage). The trajectory block ``a`` couples
+    samples about one frame interval apart, so it is banded; the few row-velocity
+    unknowns border it. Banded Cholesky of ``a`` and the Schur complement of the border
+    keep the cost linear in the window's length, so long windows (needed to resolve
+    vibration near the frame rate) stay cheap.
+    """
+    bw, n, k = band.shape[0] - 1, band.shape[1], c.shape[0]
+    if bw > n // 3:  # hardly banded: a dense solve is as good
+        a = _band_to_dense(band)
+        full = np.block([[a, b], [b.T, c]]) if k else a
+        return np.linalg.solve(full, rhs)
+    factor = linalg.cholesky_banded(band)
+    x = linalg.cho_solve_banded((factor, False), np.concatenate([b, rhs[:n]], axis=1))
+    if not k:
+        return x
+    ainv_b, ainv_r = x[:, :k], x[:, k:]
+    u = np.linalg.solve(c - b.T @ ainv_b, rhs[n:] - b.T @ ainv_r)
+    return np.concatenate([ainv_r - ainv_b @ u, u])
+
+
+@dataclass(frozen=True)
+class CameraSolution:
+    """Solution of :func:`solve_camera_trajectory`.
+
+    Attributes
+    ----------
+    t0 : float
+        Time of the first grid sample.
+    step : float
+        Grid spacing.
+    c : ndarray of shape (n, 2)
+        Trajectory samples at ``t0 + k * step``, zero mean.
+    u : ndarray of shape (row_knots, 2)
+        Row velocity at ``rows = linspace(0, 1, row_knots)`` (empty without rows).
+    cost : float
+        The minimised objective (misfit plus penalties), to compare models.
+    """
+
+    t0: float
+    step: float
+    c: np.ndarray
+    u: np.ndarray
+    cost: float
+
+    def differences(self, t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Return the left side ``c(t_a) - c(t_b) + u(y) (t_a - t_b)`` of the equations."""
+        grid_t = self.t0 + self.step * np.arange(self.c.shape[0])
+        knots = np.linspace(0.0, 1.0, self.u.shape[0])
+        return np.stack([np.interp(t_a, grid_t, self.c[:, i]) - np.interp(t_b, grid_t,
+                                                                        self.c[:, i])
+                         + np.interp(rows, knots, self.u[:, i]) * (t_a - t_b)
+                         for i in range(2)], axis=1)
+
+
+def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
+                            delta: np.ndarray, weight: np.ndarray, step: float,
+                            smoothness: float, row_knots: int = 16,
+                            freqs: np.ndarray | None = None) -> CameraSolution:
+    """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
+
+    ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
+    depends on the row only and is shared by all frame pairs: it absorbs what varies
+    along the frame but not over time (perspective, zoom, a tilted ground plane), so
+    that ``c`` changes within a frame only where the frames disagree over time (shake,
+    vibration). With a single pair the two cannot be told apart, and the penalty on the
+    acceleration of ``c`` gives the spatial explanation: constant velocity per row.
+
+    Parameters
+    ----------
+    t_a, t_b : ndarray of shape (m,)
+        Times of the two ends of each equation (later frame, earlier frame).
+    rows : ndarray of shape (m,) or None
+        Row of each equation in the later frame, as a fraction of the height; None
+        leaves the row velocity ``u`` out of the model.
+    delta : ndarray of shape (m, 2)
+        Observed displacement of the row's content from ``t_b`` to ``t_a``.
+    weight : ndarray of shape (m,)
+        Confidence of each equation.
+    step : float
+        Grid spacing of ``c`` in time.
+    smoothness : float
+        Weight of the penalty on the acceleration of ``c``.
+    row_knots : int
+        Knots of ``u`` over the frame height (linear in between).
+    freqs : ndarray, optional
+        Frequencies (cycles per unit of time) of sinusoids added to ``c`` with free
+        amplitudes, outside the smoothness penalty (vibration; see
+        :func:`sinusoid_pursuit`).
+
+    Returns
+    -------
+    CameraSolution
+
+    Examples
+    --------
+    A constant velocity of 4 px per unit time:
+
+    >>> ta = np.linspace(1, 2, 50); tb = ta - 1.0; y = np.linspace(0, 1, 50)
+    >>> sol = solve_camera_trajectory(ta, tb, y, np.tile([4.0, 0.0], (50, 1)),
+    ...                               np.ones(50), 0.05, 0.05)
+    >>> bool(np.allclose(np.diff(sol.c[:, 0]) / 0.05 + sol.u[0, 0], 4.0, atol=1e-2))
+    True
+    """
+    t0 = float(min(t_a.min(), t_b.min())) - step
+    t1 = float(max(t_a.max(), t_b.max())) + step
+    n = int(np.ceil((t1 - t0) / step)) + 2
+    ku = row_knots if rows is not None else 0
+    freqs = np.zeros(0) if freqs is None else np.asarray(freqs, dtype=np.float64)
+    k = ku + 2 * freqs.size
+    m = t_a.size
+    sw = np.sqrt(weight)
+    rhs = delta * sw[:, None]
+    ia, wa0, wa1 = _interp_matrix(t_a, t0, step, n)
+    ib, wb0, wb1 = _interp_matrix(t_b, t0, step, n)
+    # Each equation touches four samples of c (linear interpolation at both ends) ...
+    cols = np.stack([ia, ia + 1, ib, ib + 1], axis=1)
+    vals = np.stack([wa0, wa1, -wb0, -wb1], axis=1) * sw[:, None]
+    # ... and the border unknowns: u's two knots around the row, the sinusoids.
+    border = np.zeros((m, k))
+    if rows is not None:
+        ir, wr0, wr1 = _interp_matrix(rows, 0.0, 1.0 / (ku - 1), ku)
+        gap = t_a - t_b
+        r = np.arange(m)
+        border[r, ir] = gap * wr0
+        border[r, ir + 1] = gap * wr1
+    if freqs.size:  # each sinusoid's cosine and sine, seen through the differences
+        pa, pb = 2 * np.pi * (t_a - t0)[:, None] * freqs, 2 * np.pi * (t_b - t0)[:, None] * freqs
+        border[:, ku:] = np.concatenate([np.cos(pa) - np.cos(pb), np.sin(pa) - np.sin(pb)],
+                                        axis=1)
+    border *= sw[:, None]
+    # Normal equations: the c block straight into LAPACK's upper band storage.
+    bw = max(2, int((cols.max(axis=1) - cols.min(axis=1)).max()))
+    pi, qi = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+    ci, cj = cols[:, pi.ravel()], cols[:, qi.ravel()]
+    upper = ci <= cj
+    products = vals[:, pi.ravel()] * vals[:, qi.ravel()]
+    band = np.bincount(((bw + ci - cj) * n + cj)[upper], products[upper],
+                       minlength=(bw + 1) * n).reshape(bw + 1, n)
+    def c_rows(x: np.ndarray) -> np.ndarray:
+        """``A_c^T x`` for a matrix ``x`` of shape (m, j): scatter-add into c's rows."""
+        j = x.shape[1]
+        idx = cols[:, :, None] * j + np.arange(j)
+        return np.bincount(idx.ravel(), (vals[:, :, None] * x[:, None, :]).ravel(),
+                           minlength=n * j).reshape(n, j)
+
+    atb = np.concatenate([c_rows(rhs), border.T @ rhs])
+    b_cu = c_rows(border)
+    c_uu = border.T @ border
+    scale = weight.sum()
+    # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
+    band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n)
+    if ku:
+        # u: small roughness and ridge penalties (a constant velocity belongs to c).
+        c_uu[:ku, :ku] += (1e-3 * scale * _band_to_dense(_second_difference_band(ku))
+                           + 1e-4 * scale * np.eye(ku))
+    if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
+        c_uu[ku:, ku:] += SINE_RIDGE * scale * np.eye(k - ku)
+    jitter = 1e-9 * ((band[bw].sum() + np.trace(c_uu)) / (n + k) + 1e-12)
+    band[bw] += jitter
+    c_uu += jitter * np.eye(k)
+    with BLAS.limit(limits=1, user_api="blas"):
+        sol = _solve_bordered_banded(band, b_cu, c_uu, atb)
+    cost = float((rhs ** 2).sum() - (sol * atb).sum())
+    c, u = sol[:n], sol[n:n + ku]
+    if freqs.size:
+        ph = 2 * np.pi * (step * np.arange(n))[:, None] * freqs
+        c = c + np.concatenate([np.cos(ph), np.sin(ph)], axis=1) @ sol[n + ku:]
+    return CameraSolution(t0, step, c - c.mean(axis=0), u, cost)
+
+
