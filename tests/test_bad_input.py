@@ -14,7 +14,7 @@ from unjello.io.video import VideoReader
 from unjello.pipeline import correct_video
 
 from .clips import make_clip
-from .test_cli import _clean_failure, run
+from .runner import clean_failure, run
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +40,7 @@ def _silent_audio(out, frames):
 def test_truncated_mp4(tmp_path, good):
     bad = tmp_path / "trunc.mp4"
     bad.write_bytes(good.read_bytes()[: int(good.stat().st_size * 0.3)])
-    line = _clean_failure(run("correct", bad, "-o", tmp_path / "o.mp4"))
+    line = clean_failure(run("correct", bad, "-o", tmp_path / "o.mp4"))
     assert "trunc.mp4" in line
 
 
@@ -48,7 +48,7 @@ def test_audio_only(tmp_path):
     path = tmp_path / "audio.m4a"
     with av.open(str(path), "w") as out:
         _silent_audio(out, 8)
-    line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mp4"))
+    line = clean_failure(run("correct", path, "-o", tmp_path / "o.mp4"))
     assert "no video stream" in line
 
 
@@ -78,7 +78,7 @@ def test_odd_size(tmp_path):
 
 
 def test_output_folder_missing(tmp_path, good):
-    line = _clean_failure(run("correct", good, "-o", tmp_path / "nope" / "o.mp4"))
+    line = clean_failure(run("correct", good, "-o", tmp_path / "nope" / "o.mp4"))
     assert "does not exist" in line
 
 
@@ -87,7 +87,7 @@ def test_output_folder_not_writable(tmp_path, good):
     ro = tmp_path / "ro"
     ro.mkdir()
     ro.chmod(0o500)
-    line = _clean_failure(run("correct", good, "-o", ro / "o.mp4"))
+    line = clean_failure(run("correct", good, "-o", ro / "o.mp4"))
     assert "not writable" in line
 
 
@@ -109,7 +109,7 @@ def test_interrupt_leaves_nothing(tmp_path, good):
 
 
 def test_bad_preset(tmp_path, good):
-    line = _clean_failure(run("correct", good, "-o", tmp_path / "o.mp4", "--preset", "nope"))
+    line = clean_failure(run("correct", good, "-o", tmp_path / "o.mp4", "--preset", "nope"))
     assert "preset" in line
 
 
@@ -136,7 +136,7 @@ def test_video_with_zero_frames(tmp_path):
         vs = out.add_stream("mpeg4", rate=30)
         vs.width, vs.height, vs.pix_fmt = 160, 120, "yuv420p"
         _silent_audio(out, 4)
-    line = _clean_failure(run("correct", path, "-o", tmp_path / "o.mkv"))
+    line = clean_failure(run("correct", path, "-o", tmp_path / "o.mkv"))
     assert "no frames" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["zero.mkv"]
 
@@ -165,7 +165,7 @@ def test_ctrl_c_removes_partial_output(tmp_path, scene):
 def test_video_output_onto_a_folder_is_refused(tmp_path, good):
     (tmp_path / "dir").mkdir()
     (tmp_path / "dir" / "keep.txt").write_text("x")
-    line = _clean_failure(run("correct", good, "-o", tmp_path / "dir", "-y"))
+    line = clean_failure(run("correct", good, "-o", tmp_path / "dir", "-y"))
     assert "is a folder" in line
     assert (tmp_path / "dir" / "keep.txt").exists()
 
@@ -177,7 +177,7 @@ def test_output_inside_input_folder_is_refused(tmp_path, scene):
     src.mkdir()
     for i in range(2):
         write_image(src / f"{i}.png", scene[:128, :128])
-    line = _clean_failure(run("correct", src, "-o", src / "out"))
+    line = clean_failure(run("correct", src, "-o", src / "out"))
     assert "inside the input folder" in line
 
 
@@ -189,5 +189,5 @@ def test_folder_with_frames_of_different_channels(tmp_path, scene):
     small = np.ascontiguousarray(scene[:64, :96])
     write_image(src / "a.png", small)
     write_image(src / "b.png", np.dstack([small, np.full(small.shape[:2], 255, np.uint8)]))
-    line = _clean_failure(run("correct", src, "-o", tmp_path / "out"))
+    line = clean_failure(run("correct", src, "-o", tmp_path / "out"))
     assert "3 channels" in line and "4 channels" in line

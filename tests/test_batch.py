@@ -6,7 +6,7 @@ from unjello.batch import expand_inputs, run_batch
 from unjello.errors import InputError
 
 from .clips import make_clip
-from .test_cli import run
+from .runner import run_process as run
 
 
 @pytest.fixture(scope="module")

@@ -1,21 +1,16 @@
 """The command line: every bad input is one clear line and a non-zero exit."""
 
 import json
-import subprocess
-import sys
 
+import numpy as np
 import pytest
 
-from unjello.cli import main
-from unjello.io.frames import write_image
+from unjello.io.frames import read_image, write_image
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming
 
 from .clips import make_clip
-
-
-def run(*args, cwd=None):
-    """Run the real CLI in a subprocess, as a user would."""
-    return subprocess.run([sys.executable, "-m", "unjello", *map(str, args)],
-                          capture_output=True, text=True, cwd=cwd, timeout=300)
+from .runner import clean_failure, run, run_process
 
 
 @pytest.fixture(scope="module")
@@ -25,23 +20,15 @@ def clip(tmp_path_factory, scene):
     return p
 
 
-def _clean_failure(res):
-    assert res.returncode != 0
-    assert "Traceback" not in res.stderr
-    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1, res.stderr
-    return lines[0]
-
-
 def test_missing_input(tmp_path):
-    line = _clean_failure(run("correct", tmp_path / "nope.mp4", "-o", tmp_path / "o.mp4"))
+    line = clean_failure(run_process("correct", tmp_path / "nope.mp4", "-o", tmp_path / "o.mp4"))
     assert "no such file" in line
 
 
 def test_text_file_renamed_mp4(tmp_path):
     fake = tmp_path / "fake.mp4"
     fake.write_text("hello")
-    line = _clean_failure(run("correct", fake, "-o", tmp_path / "o.mp4"))
+    line = clean_failure(run_process("correct", fake, "-o", tmp_path / "o.mp4"))
     assert "not a video" in line
     assert fake.read_text() == "hello"
     assert not (tmp_path / "o.mp4").exists()
@@ -49,14 +36,14 @@ def test_text_file_renamed_mp4(tmp_path):
 
 @pytest.mark.parametrize("readout", ["0", "-1", "2", "abc"])
 def test_bad_readout(tmp_path, clip, readout):
-    line = _clean_failure(run("correct", clip, "-o", tmp_path / "o.mp4", "--readout", readout))
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "o.mp4", "--readout", readout))
     assert "readout" in line
     assert not (tmp_path / "o.mp4").exists()
 
 
 def test_output_equals_input(clip):
     before = clip.read_bytes()
-    line = _clean_failure(run("correct", clip, "-o", clip, "-y"))
+    line = clean_failure(run("correct", clip, "-o", clip, "-y"))
     assert "is the input" in line
     assert clip.read_bytes() == before
 
@@ -64,14 +51,14 @@ def test_output_equals_input(clip):
 def test_existing_output_kept_without_y(tmp_path, clip):
     out = tmp_path / "o.mp4"
     out.write_bytes(b"precious")
-    line = _clean_failure(run("correct", clip, "-o", out))
+    line = clean_failure(run("correct", clip, "-o", out))
     assert "-y" in line
     assert out.read_bytes() == b"precious"
 
 
 def test_empty_folder(tmp_path):
     (tmp_path / "empty").mkdir()
-    line = _clean_failure(run("correct", tmp_path / "empty", "-o", tmp_path / "out"))
+    line = clean_failure(run("correct", tmp_path / "empty", "-o", tmp_path / "out"))
     assert "no images" in line
 
 
@@ -99,9 +86,77 @@ def test_simulate_correct_evaluate(tmp_path, scene, work):
     assert mean["psnr"] > json.loads(res_unc.stdout)["mean"]["psnr"] + 6
 
 
-def test_help_and_version(capsys):
-    main(["--version"])
-    assert "unjello" in capsys.readouterr().out
+def test_version_and_every_option_has_its_flag():
+    from unjello import __version__
+    from unjello.config import OPTIONS, CorrectionConfig
+
+    assert run("--version").stdout.strip() == f"unjello, version {__version__}"
+    correct, batch = run("correct", "--help").stdout, run("batch", "--help").stdout
+    for opt in OPTIONS.values():
+        assert opt.flag in correct
+        assert (opt.flag in batch) != opt.per_clip, opt.name
+    # The defaults shown are the library's own, not a copy of them.
+    assert f"[default: {CorrectionConfig().dense.work_width}]" in " ".join(correct.split())
+
+
+def test_readout_in_ms_uses_the_clips_own_frame_rate(tmp_path, scene):
+    """36 ms on a 25 fps clip is 0.9 of a frame (was refused against an assumed 30 fps)."""
+    src = tmp_path / "c25.mp4"
+    make_clip(src, scene, n=6, fps=25)
+    res = run("correct", src, "-o", tmp_path / "o.mp4", "--readout", "36ms", "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["readout"] == pytest.approx(0.9, abs=1e-3)
+    # More than a frame interval at this clip's rate is refused, in one line.
+    line = clean_failure(run("correct", src, "-o", tmp_path / "p.mp4", "--readout", "41ms"))
+    assert "41 ms is 1.025 of the frame interval at 25" in line
+
+
+def test_readout_in_ms_for_a_folder_needs_its_frame_rate(tmp_path, scene):
+    src = tmp_path / "frames"
+    src.mkdir()
+    for i, s in enumerate(simulate(scene, Motion("pan", speed=5.0), SensorTiming(0.9), 4,
+                                   size=(160, 120))):
+        write_image(src / f"f{i}.png", s.rolling)
+    line = clean_failure(run("correct", src, "-o", tmp_path / "o", "--readout", "36ms"))
+    assert "needs the frame rate" in line and "--fps" in line
+    res = run("correct", src, "-o", tmp_path / "o", "--readout", "36ms", "--fps", "25",
+              "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["readout"] == pytest.approx(0.9)
+
+
+@pytest.mark.parametrize("value, readout", [
+    (0.9, 0.9), ("0.9", 0.9), ("27ms", 0.81), ("auto", None), (None, 1.0)])
+def test_batch_preset_readout_as_number_string_time_auto_or_missing(tmp_path, clip, value,
+                                                                    readout):
+    """A JSON preset's readout: a number ended in a traceback (AttributeError: strip)."""
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "a.mp4").write_bytes(clip.read_bytes())
+    preset = tmp_path / "p.json"
+    preset.write_text(json.dumps({} if value is None else {"readout": value}))
+    res = run_process("batch", src, "-o", tmp_path / "out", "--preset", preset,
+                      "--workers", "1")
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr
+    row = json.loads((tmp_path / "out" / "unjello-batch.jsonl").read_text())
+    assert row["status"] == "ok"
+    if readout is not None:
+        assert row["readout"] == pytest.approx(readout, abs=1e-3)
+
+
+@pytest.mark.parametrize("preset, message", [
+    ({"readout": [0.9]}, "readout must be a number"),
+    ({"readout": "fast"}, "cannot parse readout"),
+    ({"crf": "high"}, "expected an integer"),
+    ({"speed": 3}, "unknown setting(s) speed"),
+])
+def test_a_bad_preset_value_is_one_line(tmp_path, clip, preset, message):
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps(preset))
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "o.mp4", "--preset", p))
+    assert message in line and str(p) in line
+    assert not (tmp_path / "o.mp4").exists()
 
 
 def test_readout_command(shared_data):
@@ -168,7 +223,12 @@ def test_plot_command(tmp_path, clip):
                "-q").returncode == 0
     res = run("plot", motion, "-o", tmp_path / "m.png")
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "m.png").stat().st_size > 10000
+    img = read_image(tmp_path / "m.png")
+    assert img.shape[:2] == (660, 1100)  # 10 x 6 inches at 110 dpi
+    # Both curves are drawn: Matplotlib's tab:blue (x) and tab:orange (y).
+    for colour in ((31, 119, 180), (255, 127, 14)):
+        assert (np.abs(img[..., :3].astype(int) - colour).sum(axis=-1) < 30).sum() > 500
+    assert "exists" in clean_failure(run("plot", motion, "-o", tmp_path / "m.png"))
 
 
 def test_textureless_video_is_handled(tmp_path):
@@ -237,7 +297,7 @@ def test_correct_with_a_gyro_log(tmp_path, scene):
 ])
 def test_gyro_mistakes_are_one_line(tmp_path, clip, args, message):
     args = [str(clip) if a == "in.mp4" else a for a in args]
-    line = _clean_failure(run("correct", clip, "-o", tmp_path / "out.mp4", *args))
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "out.mp4", *args))
     assert message in line
     assert not (tmp_path / "out.mp4").exists()
 
@@ -291,4 +351,4 @@ def test_simulate_writes_a_gyro_log_that_corrects_its_clip(tmp_path, scene):
     unc = json.loads(run("evaluate", rs, gs, "--json").stdout)["mean"]["psnr"]
     assert mean["psnr"] > unc + 6
     again = run("simulate", src, "-o", rs, "--truth", gs, "--gyro-out", log)
-    assert "exists" in _clean_failure(again)
+    assert "exists" in clean_failure(again)

@@ -118,7 +118,18 @@ def _flagify(message: str) -> str:
     return re.sub(r"\b([a-z][a-z0-9_]*)=", lambda m: flag(m, ""), message)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Group(click.Group):
+    """Click's group, with every deliberate library error said in one line (exit code 2)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except UnjelloError as exc:
+            click.echo(f"unjello: error: {_flagify(str(exc))}", err=True)
+            ctx.exit(2)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="unjello")
 def cli() -> None:
     """Remove rolling-shutter distortion (skew, wobble, jello) from video."""
@@ -435,9 +446,9 @@ def probe(input: Path, as_json: bool) -> None:
 
 
 def main(argv: list[str] | None = None) -> Any:
-    """Entry point: run the CLI, turning deliberate errors into one line and an exit code."""
+    """Entry point: run the CLI; Ctrl-C is one line and exit code 130."""
     try:
-        return cli.main(args=argv, prog_name="unjello", standalone_mode=False)
+        code = cli.main(args=argv, prog_name="unjello", standalone_mode=False)
     except click.exceptions.Abort:
         click.echo("interrupted", err=True)
         sys.exit(130)
@@ -447,6 +458,6 @@ def main(argv: list[str] | None = None) -> Any:
     except click.exceptions.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
-    except UnjelloError as exc:
-        click.echo(f"unjello: error: {_flagify(str(exc))}", err=True)
-        sys.exit(2)
+    if isinstance(code, int) and code:
+        sys.exit(code)
+    return code
