@@ -1,0 +1,130 @@
+"""The architecture's import rules, checked on the source (DESIGN.md, import contracts).
+
+* only ``unjello.io`` imports ``av`` (I/O at the edges);
+* ``unjello.motion`` imports none of ``io``, ``warp``, ``pipeline``, ``config``, ``cli``
+  (methods take arrays and return a Trajectory's frames);
+* nothing imports ``unjello.cli`` (but ``__main__``);
+* no two modules import each other, directly or through others (no cycles).
+
+Imports inside functions count: a lazy import is still a dependency.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "unjello"
+
+
+def _module_name(path: Path) -> str:
+    parts = ["unjello", *path.relative_to(SRC).with_suffix("").parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """Modules a file imports, absolute (``from . import x`` resolved to ``pkg.x`` if a module)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            out.add(target)
+            for alias in node.names:  # `from . import sub` imports the submodule
+                if _exists(f"{target}.{alias.name}"):
+                    out.add(f"{target}.{alias.name}")
+    return out
+
+
+def _exists(module: str) -> bool:
+    rel = Path(*module.split(".")[1:])
+    return (SRC / rel).with_suffix(".py").is_file() or (SRC / rel / "__init__.py").is_file()
+
+
+GRAPH = {_module_name(p): _imports(p) for p in sorted(SRC.rglob("*.py"))}
+
+
+def _ours(graph_imports: set[str]) -> set[str]:
+    return {m for m in graph_imports if m == "unjello" or m.startswith("unjello.")}
+
+
+def test_the_graph_is_the_package():
+    assert {"unjello.pipeline", "unjello.config", "unjello.motion.dense",
+            "unjello.io.source"} <= set(GRAPH)
+    assert "unjello.io.frames" in GRAPH["unjello.io.source"]
+
+
+@pytest.mark.parametrize("module", sorted(GRAPH))
+def test_only_io_imports_av(module):
+    if not module.startswith("unjello.io"):
+        assert not {m for m in GRAPH[module] if m == "av" or m.startswith("av.")}, module
+
+
+@pytest.mark.parametrize("module", sorted(m for m in GRAPH if m.startswith("unjello.motion")))
+def test_motion_imports_no_files_warp_pipeline_or_cli(module):
+    banned = ("unjello.io", "unjello.warp", "unjello.pipeline", "unjello.config", "unjello.cli",
+              "unjello.exports", "unjello.batch")
+    bad = {m for m in GRAPH[module] if m.startswith(banned)}
+    assert not bad, f"{module} imports {bad}"
+
+
+def test_nothing_imports_the_cli():
+    users = {m for m, deps in GRAPH.items() if "unjello.cli" in deps}
+    assert users <= {"unjello.__main__"}, users
+
+
+def test_no_import_cycles():
+    # Packages' __init__ files gather the public names; the rules are about modules.
+    graph = {m: {d for d in _ours(deps) if d in GRAPH and d != m and d != "unjello"}
+             for m, deps in GRAPH.items() if m != "unjello"}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles: list[list[str]] = []
+
+    def visit(v: str) -> None:  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    assert not cycles, cycles
+
+
+def test_a_cycle_would_be_found(monkeypatch):
+    """The checker itself: a made-up mutual import is reported."""
+    monkeypatch.setitem(GRAPH, "unjello.timing", GRAPH["unjello.timing"] | {"unjello.warp"})
+    with pytest.raises(AssertionError, match="unjello.timing"):
+        test_no_import_cycles()
+
+
+def test_modules_stay_one_job_sized():
+    """The streaming module stays a driver; no module grows past 700 lines (two jobs)."""
+    sizes = {p.relative_to(SRC).as_posix(): len(p.read_text().splitlines())
+             for p in SRC.rglob("*.py")}
+    assert sizes["pipeline.py"] <= 500
+    assert not {k: v for k, v in sizes.items() if v > 700}
