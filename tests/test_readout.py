@@ -1,7 +1,6 @@
 import numpy as np
 import pytest
 
-from unjello.config import CorrectionConfig
 from unjello.errors import InputError
 from unjello.io.frames import read_image
 from unjello.readout import estimate_readout, readout_from_flicker
@@ -82,41 +81,3 @@ def test_uniform_motion_falls_back(scene):
                                           SensorTiming(0.5), 8, size=(320, 240))]
     est = estimate_readout(frames, fallback=1.0)
     assert not est.reliable and est.readout == 1.0
-
-
-def test_stated_readout_sidecar_and_metadata(tmp_path, scene):
-    import json
-
-    import av
-
-    from unjello.io.sidecars import stated_readout
-    from unjello.pipeline import correct_video
-
-    from .clips import make_clip
-
-    clip = tmp_path / "clip.mp4"
-    make_clip(clip, scene, n=4, audio=False)
-    assert stated_readout(clip) is None
-    # A Gyroflow lens profile beside the clip states the readout in ms.
-    (tmp_path / "clip.json").write_text(json.dumps(
-        {"camera_brand": "Test", "frame_readout_time": 25.0, "calib_dimension": {}}))
-    st = stated_readout(clip)
-    assert st is not None and st.milliseconds == 25.0 and "clip.json" in st.source
-    messages = []
-    traj = correct_video(clip, tmp_path / "o.mp4", log=messages.append)
-    assert traj.timing.readout == pytest.approx(0.75, abs=1e-3)  # 25 ms at 30 fps
-    assert "sidecar" in messages[0]
-    # The command line wins.
-    traj = correct_video(clip, tmp_path / "o2.mp4", CorrectionConfig(readout=0.5))
-    assert traj.timing.readout == 0.5
-    # A container tag (Matroska keeps free-form tags).
-    mkv = tmp_path / "tagged.mkv"
-    with av.open(str(clip)) as src, av.open(str(mkv), "w") as out:
-        out.metadata["READOUT_MS"] = "12.5"
-        vs = out.add_stream_from_template(src.streams.video[0])
-        for p in src.demux(src.streams.video[0]):
-            if p.dts is not None:
-                p.stream = vs
-                out.mux(p)
-    st = stated_readout(mkv)
-    assert st is not None and st.milliseconds == 12.5 and st.source == "container metadata"

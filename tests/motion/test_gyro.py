@@ -1,10 +1,9 @@
-"""The gyro method: log reading, per-scanline homographies, calibration from the footage."""
+"""The gyro method: per-scanline homographies, calibration from the footage."""
 
 import numpy as np
 import pytest
 
 from unjello.errors import InputError, SettingsError
-from unjello.io.sidecars import read_gyro
 from unjello.metrics import displacement_error
 from unjello.motion.gyro import (
     GyroCalibration,
@@ -18,39 +17,14 @@ from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
 
 
-def test_read_gyro_finds_the_time_column_and_its_unit(tmp_path):
-    t = np.arange(50) * 2.5 + 1000.0  # ms, 400 Hz
-    rates = np.random.default_rng(0).normal(0, 0.1, (50, 3))
-    p = tmp_path / "g.csv"
-    lines = ["# a comment", "wx,wy,wz,t"] + [f"{a},{b},{c},{d}" for (a, b, c), d in
-                                             zip(rates, t, strict=True)]
-    p.write_text("\n".join(lines))
-    log = read_gyro(p)
-    assert np.allclose(log.time, t / 1000) and np.allclose(log.rate, rates)
-    q = tmp_path / "g.txt"  # time first, seconds, degrees, spaces
-    q.write_text("\n".join(f"{d / 1000} {a} {b} {c}" for (a, b, c), d in
-                           zip(np.rad2deg(rates), t, strict=True)))
-    log2 = read_gyro(q, layout="t,x,y,z", units="deg")
-    assert np.allclose(log2.time, log.time) and np.allclose(log2.rate, rates)
-
-
-def test_read_gyro_refuses_what_is_not_a_log(tmp_path):
-    p = tmp_path / "notes.txt"
-    p.write_text("hello\nworld\n")
-    with pytest.raises(InputError, match="not a gyro log"):
-        read_gyro(p)
-    with pytest.raises(InputError, match="cannot read"):
-        read_gyro(tmp_path / "missing.csv")
-    with pytest.raises(SettingsError):
-        axes_matrix("XXY")
-    with pytest.raises(SettingsError):
-        GyroConfig(focal=-3.0)
-
-
 def test_axes_matrix():
     assert np.array_equal(axes_matrix("XYZ"), np.eye(3))
     m = axes_matrix("yZx")  # camera x = -gyro y, camera y = gyro z, camera z = -gyro x
     assert np.array_equal(m @ np.array([1.0, 2.0, 3.0]), [-2.0, 3.0, -1.0])
+    with pytest.raises(SettingsError, match="three letters"):
+        axes_matrix("XXY")
+    with pytest.raises(SettingsError, match="focal length must be positive"):
+        GyroConfig(focal=-3.0)
 
 
 def test_roll_is_a_rotation_of_each_row_about_the_centre():
@@ -140,6 +114,7 @@ def test_real_phone_clip_calibrates_to_its_published_intrinsics(shared_data):
     frame timestamps (the middle row's time within a frame interval of frame 99's stamp).
     """
     from unjello.io.frames import list_frames, read_image
+    from unjello.io.sidecars import read_gyro
 
     root = shared_data / "sequences" / "phone_gyro"
     files = list_frames(root / "reshape")[:45]

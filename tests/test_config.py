@@ -1,0 +1,146 @@
+"""Settings resolved once: presets from Python, flat options, the timing's order and sources."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from unjello.config import OPTIONS, PRESETS, CorrectionConfig, resolve_timing
+from unjello.errors import SettingsError
+from unjello.timing import Milliseconds, SensorTiming
+
+
+class _Estimate:
+    def __init__(self, readout, reliable=True):
+        self.readout, self.reliable, self.confidence, self.model = readout, reliable, 0.8, "smooth"
+
+
+def test_presets_are_library_objects(tmp_path):
+    drone = CorrectionConfig.from_preset("drone")
+    assert drone.dense.vibration == "on" and drone.method == "dense"
+    fast = CorrectionConfig.from_preset("fast")
+    assert not fast.dense.per_pixel and fast.dense.work_width == 320
+    assert fast.option("camera_only") is True
+    p = tmp_path / "my.json"
+    p.write_text(json.dumps({"readout": "36ms", "method": "paper", "x264-preset": "fast",
+                             "gyro_offset": 250}))
+    mine = CorrectionConfig.from_preset(p)
+    assert mine.readout == Milliseconds(36.0) and mine.method == "paper"
+    assert mine.encode.preset == "fast" and mine.gyro.offset == pytest.approx(0.25)
+    assert mine.option("gyro_offset") == pytest.approx(250)
+    assert mine.origins["readout"] == "preset my.json"
+    # A preset applied to other settings keeps what it does not name.
+    assert CorrectionConfig.from_preset("drone", base=mine).method == "paper"
+    assert set(PRESETS) == {"paper-figures", "fast", "drone"}
+
+
+@pytest.mark.parametrize("value, parsed", [
+    (0.9, 0.9), ("0.9", 0.9), (1, 1.0), ("36ms", Milliseconds(36.0)), (" Auto ", "auto"),
+    (None, None)])
+def test_a_readout_is_parsed_once_whatever_its_form(value, parsed):
+    config = CorrectionConfig().with_options(readout=value)
+    assert config.readout == parsed
+    # Never a string again: the request is a number, a time or 'auto'.
+    assert not isinstance(config.readout, str) or config.readout == "auto"
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"readout": 1.5}, "outside (0, 1]"),
+    ({"readout": "-3ms"}, "positive"),
+    ({"readout": True}, "readout must be a number"),
+    ({"direction": "diagonal"}, "direction must be one of"),
+    ({"search": 0}, "search range"),
+    ({"crf": 60}, "crf must be 0 to 51"),
+    ({"crf": 3.5}, "expected an integer"),
+    ({"vibration": "maybe"}, "vibration must be auto, on or off"),
+    ({"flow_preset": "slow"}, "flow preset must be one of"),
+    ({"gyro": "x.csv", "method": "paper"}, "gyro= goes with method=gyro"),
+    ({"colour": "red"}, "unknown setting(s) colour"),
+])
+def test_the_library_validates_every_option(values, message):
+    with pytest.raises(SettingsError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        CorrectionConfig().with_options(**values)
+
+
+def test_a_gyro_log_means_the_gyro_method():
+    config = CorrectionConfig().with_options(gyro="x.csv")
+    assert config.method == "gyro" and config.gyro.path == "x.csv"
+
+
+def test_option_table_paths_all_resolve():
+    defaults = CorrectionConfig()
+    for name in OPTIONS:
+        defaults.option(name)  # raises AttributeError on a stale path
+
+
+def _resolve(config, tmp_path, video_fps=30.0, **kw):
+    return resolve_timing(config, path=tmp_path / "clip.mp4", video_fps=video_fps, **kw)
+
+
+def test_defaults_and_their_sources(tmp_path):
+    r = _resolve(CorrectionConfig(), tmp_path)
+    assert r.timing == SensorTiming(1.0, "top-bottom", "middle") and r.fps == 30.0
+    assert dict(r.sources) == {"fps": "the video", "direction": "default",
+                               "reference": "default", "readout": "default"}
+
+
+def test_order_of_precedence(tmp_path):
+    clip = tmp_path / "clip.mp4"
+    clip.write_bytes(b"")
+    (tmp_path / "clip.mp4.readout.json").write_text(json.dumps({"frame_readout_time": 15.0}))
+    estimate = lambda direction, fps: _Estimate(0.42)  # noqa: E731
+    # The sidecar beats the default, and 'auto' takes it before estimating.
+    for readout in (None, "auto"):
+        r = _resolve(CorrectionConfig(readout=readout), tmp_path, estimate=estimate)
+        assert r.timing.readout == pytest.approx(0.45)
+        assert r.sources["readout"] == "sidecar clip.mp4.readout.json"
+        assert "15 ms from the sidecar" in r.messages[0]
+    # The settings beat the sidecar, and say who gave them.
+    given = CorrectionConfig().with_options(origin="command line", readout=0.7,
+                                            reference="first")
+    r = _resolve(given, tmp_path, estimate=estimate)
+    assert r.timing.readout == 0.7 and r.timing.reference == "first"
+    assert r.sources["readout"] == "command line" and r.sources["reference"] == "command line"
+    # A motion file beats everything.
+    r = _resolve(given, tmp_path, motion_timing=SensorTiming(0.3, "left-right"))
+    assert r.timing == SensorTiming(0.3, "left-right") and r.sources["readout"] == "motion file"
+
+
+def test_auto_estimates_when_nothing_states_it(tmp_path):
+    r = _resolve(CorrectionConfig(readout="auto"), tmp_path,
+                 estimate=lambda direction, fps: _Estimate(0.42))
+    assert r.timing.readout == 0.42 and r.sources["readout"] == "estimated from the motion"
+    weak = _resolve(CorrectionConfig(readout="auto"), tmp_path,
+                    estimate=lambda direction, fps: _Estimate(1.0, reliable=False))
+    assert weak.sources["readout"] == "default" and weak.messages[0].startswith("warning")
+
+
+def test_one_frame_rate_for_a_folder(tmp_path):
+    folder = CorrectionConfig(readout="36ms")
+    with pytest.raises(SettingsError, match="needs the frame rate: a folder states none"):
+        _resolve(folder, tmp_path, video_fps=None)
+    r = _resolve(folder.with_options(origin="command line", fps=25), tmp_path, video_fps=None)
+    assert r.timing.readout == pytest.approx(0.9) and r.fps == 25.0
+    assert r.sources["fps"] == "command line"
+    # Without ms, a folder runs at the assumed rate, and says so.
+    r = _resolve(CorrectionConfig(), tmp_path, video_fps=None)
+    assert r.fps == 30.0 and r.sources["fps"] == "default"
+    # A video's own rate turns its ms readout into a fraction.
+    r = _resolve(folder, tmp_path, video_fps=25.0)
+    assert r.timing.readout == pytest.approx(0.9) and r.sources["fps"] == "the video"
+
+
+def test_a_config_is_picklable_for_a_cluster():
+    import pickle
+
+    config = CorrectionConfig.from_preset("fast").with_options(readout="20ms")
+    assert pickle.loads(pickle.dumps(config)) == config
+
+
+def test_readme_preset_example_runs(tmp_path):
+    """The JSON preset shown in the README is a valid preset."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = readme.split("```json", 1)[1].split("```", 1)[0]
+    p = tmp_path / "p.json"
+    p.write_text(block)
+    CorrectionConfig.from_preset(p)
