@@ -2,6 +2,7 @@
 
 import json
 
+import av
 import cv2
 import numpy as np
 import pytest
@@ -90,10 +91,20 @@ def test_preview_video(tmp_path, scene):
     src, dst, prev = tmp_path / "in.mp4", tmp_path / "out.mp4", tmp_path / "prev.mp4"
     make_clip(src, scene, n=5)
     correct_video(src, dst, preview=prev)
-    from unjello.io.video import probe
+    from .clips import video_pts
 
-    p, o = probe(prev), probe(dst)
-    assert p.width == 2 * o.width + 4 and p.frames == o.frames == 5
+    frames = {}
+    for name in ("in", "out", "prev"):
+        with av.open(str(tmp_path / f"{name}.mp4")) as c:
+            frames[name] = [f.to_ndarray(format="rgb24").astype(int) for f in c.decode(video=0)]
+    assert len(frames["prev"]) == len(frames["out"]) == 5
+    assert video_pts(prev) == video_pts(src)
+    w = frames["in"][0].shape[1]
+    for a, b, both in zip(frames["in"], frames["out"], frames["prev"], strict=True):
+        assert both.shape[1] == 2 * w + 4
+        # Left: the input; right: the corrected frame (each up to the preview's encoding).
+        assert np.abs(both[:, :w] - a).mean() < 3 and np.abs(both[:, w + 4:] - b).mean() < 3
+    assert np.abs(frames["in"][3] - frames["out"][3]).mean() > 5  # and they differ
 
 
 def test_plot(tmp_path, scene):
