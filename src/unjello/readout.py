@@ -183,14 +183,10 @@ def readout_from_flicker(image: np.ndarray, frequency: float, *,
                           contrast=contrast)
 
 
-#: Weight of the trajectory's acceleration penalty when scoring a readout candidate.
-#: Measured with ``benchmarks/readout.py``: 1e-3 biased pan-then-stop estimates upwards
-#: by up to 0.09, 1e-4 keeps them within 0.05; 1e-2 cannot tell any readout apart.
+#: Weight of the trajectory's acceleration penalty when scoring a readout candidate, and
+#: the vibration model's sinusoids and their highest frequency (cycles per frame interval:
+#: 48 Hz at 30 fps), as calibrated with ``benchmarks/readout.py`` (``docs/tuning.md``).
 _SMOOTHNESS = 1e-4
-#: Sinusoids of the vibration model, and the highest frequency they may take (cycles per
-#: frame interval: 48 Hz at 30 fps). Measured with ``benchmarks/readout.py`` on the
-#: jello clips: up to 2.5 cycles per frame, rho 0.3 was taken for 0.15 (a faster
-#: vibration read more slowly); with 4 sinusoids, hand shake came out 0.05 low.
 _SINUSOIDS = 6
 _MAX_CYCLES = 1.6
 

@@ -24,12 +24,8 @@ __all__ = ["BLAS", "SINE_RIDGE", "CameraSolution", "solve_camera_trajectory"]
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
 BLAS = ThreadpoolController()
 
-# Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight, in
-# their choice and their solve. Measured (benchmarks/synthetic.py, --vibration on): 1e-6
-# let sinusoids near the frame rate, which the frame differences barely see, fit noise
-# (diagonal pan 4.1x, moving object 1.3x the uncorrected error); 1e-3 is as safe as no
-# sinusoids on every case and gives the 2 s jello clip 0.090x (0.182x without; 0.099x
-# as shipped, picking every 8 frames from every 4th row); 3e-3 0.125x, 1e-2 0.146x.
+# Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight: a
+# sinusoid the frame differences barely see must not fit noise (``docs/tuning.md``).
 SINE_RIDGE = 1e-3
 
 def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,

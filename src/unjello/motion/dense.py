@@ -271,10 +271,8 @@ def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
     a point sees moving through a zoom or a perspective; the residual of its fit would
     carry objects' edges through the frame.
 
-    Measured on the research pairs (``benchmarks/pairs.py``, two frames, extrapolating
-    half a frame): Fastec 28.32 -> 28.78 dB, Carla 31.19 -> 31.37 dB. An affine field gave
-    28.72 / 31.26; a quadratic 28.70 / 31.37; the full per-pixel field (a stationary
-    velocity field) 28.06 / 30.99.
+    The projective field beat an affine one, a quadratic one and the full per-pixel
+    field on the research pairs (``docs/tuning.md``).
     """
     h, w = vel.shape[:2]
     gx, gy = pixel_grid(h, w)
@@ -298,15 +296,7 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     replaces a pixel's own flow where it matches the other frame at least as well over a
     ``window`` x ``window`` patch (sum of absolute differences). Pixels of independently
     moving objects and of other layers keep their flow: the global motion does not match
-    them. Measured (``benchmarks/synthetic.py``, 320x240, dense method, error relative to
-    uncorrected, without -> with): moving object's background 0.0191x -> 0.0146x, the
-    same pan without the object 0.0046x -> 0.0013x, two-depth parallax 0.021x -> 0.018x,
-    pan 0.010x -> 0.006x, hand shake 0.046x -> 0.042x, PSNR within 0.02 dB; research
-    pairs (``benchmarks/pairs.py``) Fastec 28.79 -> 28.78 dB, Carla 31.56 -> 31.57 dB. A
-    5 px window scored better on the suite (0.012x, 0.0009x, 0.015x) and worse on the
-    pairs (28.77 / 31.53); with it, asking the global motion to be better by a quarter of a
-    grey level scored worse on the suite (0.014x, 0.0017x, 0.017x) at the same pairs
-    figures; the camera's row model as the candidate instead cost the pairs 0.4 dB.
+    them (measurements: ``docs/tuning.md``).
 
     Parameters
     ----------

@@ -24,10 +24,8 @@ PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM}
 
 
-# Up to this width the medium preset estimates flow at full resolution (its level 1 on
-# a 640 px copy is 320 px wide). Measured on 320x240 (benchmarks/synthetic.py): moving
-# object background 0.035x -> 0.016x, parallax 0.038x -> 0.019x, hand shake 0.069x ->
-# 0.063x, at 1.5-1.75x the flow's time.
+# Up to this width the medium preset estimates flow at full resolution, so small frames
+# get flow as fine as large ones (``docs/tuning.md``).
 _FULL_RES_WIDTH = 480
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
@@ -216,16 +214,8 @@ def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
     Where the flow varies by more than ``spread`` px within 9x9 pixels, each pixel may
     take the flow found ``radii`` px away in one of eight directions, if that flow
     matches the previous frame better over a ``window`` x ``window`` patch (sum of
-    absolute differences of the warped previous frame). Measured
-    (``benchmarks/synthetic.py``, 320x240): two-depth parallax 0.022x -> 0.014x of the
-    uncorrected error, a moving object's background 0.019x -> 0.012x; research pairs
-    Fastec 28.76 -> 28.74 dB, Carla 31.48 -> 31.49 dB (with five DIS refinement
-    iterations: 0.019x -> 0.012x, 0.016x -> 0.011x, 28.78 -> 28.73, 31.37 -> 31.45 dB).
-    A 3x3 patch was better on the
-    suite (0.010x, 0.009x) and worse on the pairs (28.70, 31.39); radii 3, 6 and 10 px
-    scored as 3 and 8 at 1.7x the cost. Cost: nothing where there are no boundaries,
-    22 ms on a 480x270 copy with boundaries everywhere (synthetic); the Carla town
-    sequence (640x448, parallax throughout) went from 0.15 to 0.20 s a frame.
+    absolute differences of the warped previous frame). Cost: nothing where there are
+    no boundaries (measurements: ``docs/tuning.md``).
 
     Parameters
     ----------

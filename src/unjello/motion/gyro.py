@@ -48,10 +48,9 @@ __all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "axes_matri
 # Flow for the calibration is computed on copies at most this wide (DIS medium at its
 # full resolution there).
 _SYNC_WIDTH = 320
-# A log is refused when it explains less than this share of the measured row motion.
-# Measured: simulated shake with its own log 1.00; the hand-held phone clip from a car
-# (parallax, the dashboard) 0.61; random logs 0.38-0.48 on 12 frames, below 0.2 on 30 and
-# 60 (the search over offsets and axes fits a short clip's few pairs by chance).
+# A log is refused when it explains less than this share of the measured row motion: its
+# own log explains all of a simulated shake, a real phone clip's 0.61, random ones less
+# (``docs/tuning.md``).
 _AGREEMENT = 0.3
 
 

@@ -21,25 +21,14 @@ __all__ = ["VIBRATION", "PROBE_CONTRAST", "PROBE_WAIT", "vibration_level",
            "detect_vibration", "sinusoid_pursuit"]
 
 #: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
-#: of about one beat period (31 Hz at 30 fps beats once a second), a trajectory that may
-#: bend at scanline resolution, and six sinusoids of free frequency (a vibration is a few
-#: of them: with them the 2 s jello clip of ``benchmarks/synthetic.py`` went from 0.182x
-#: to 0.099x of the uncorrected error, the 12-frame one from 0.699x to 0.633x). Costs some
-#: accuracy on parallax (0.049x instead of 0.019x) and a 16-frame look-ahead. The flow
-#: keeps DIS medium's five refinement iterations: with one, the suite's diagonal pan went
-#: from 0.020x to 0.032x and the moving object's background from 0.029x to 0.047x.
+#: of about one beat period, a trajectory that may bend at scanline resolution, six
+#: sinusoids of free frequency, DIS medium's own refinement (``docs/tuning.md``).
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
                              "refinement": None}
 
 # Vibration is detected (:func:`vibration_level`) above this wobble, as a fraction of the
-# frame height, making up at least this share of the non-steady row flow. Measured on 10
-# simulated frames (224x160 and 320x240, two photos): jello 0.87-1.3 % / 0.84; hand shake
-# 0.14-0.21 % / 0.11; pan then stop 0.13-0.19 % / 0.09; parallax and a moving object
-# 0.02 % and less. On 12 frames at readouts 0.3-1.0: jello 0.54-0.85 % / 0.57-0.85, hand
-# shake up to 0.27 % / 0.24, a stop up to 0.19 % / 0.13; the real hand-held phone clip
-# 0.17 % / 0.23. The share tells them apart; the wobble threshold only keeps still or
-# steady clips (a constant pan: 0.01 %, share up to 1.0) out. 720p Big Buck Bunny with a
-# 2 px jello read in 0.6 of the frame interval: 0.29 % / 0.78 (missed at 0.4 %).
+# frame height, making up at least this share of the non-steady row flow: the share tells
+# jello from shake and stops, the wobble keeps still or steady clips out (``docs/tuning.md``).
 _WOBBLE, _WOBBLE_SHARE = 0.002, 0.5
 
 # Frame pairs enter the vibration test only where both frames have this grey-level
