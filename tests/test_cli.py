@@ -148,7 +148,7 @@ def test_batch_preset_readout_as_number_string_time_auto_or_missing(tmp_path, cl
 @pytest.mark.parametrize("preset, message", [
     ({"readout": [0.9]}, "readout must be a number"),
     ({"readout": "fast"}, "cannot parse readout"),
-    ({"crf": "high"}, "expected an integer"),
+    ({"crf": "high"}, "--crf 'high' is not an integer"),
     ({"speed": 3}, "unknown setting(s) speed"),
 ])
 def test_a_bad_preset_value_is_one_line(tmp_path, clip, preset, message):

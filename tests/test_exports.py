@@ -13,7 +13,6 @@ from unjello.exports import (
     maps_to_coded,
     plot_trajectory,
     stmap_image,
-    stmap_to_maps,
 )
 from unjello.io.frames import read_image, write_image
 from unjello.pipeline import correct_frames, correct_video
@@ -32,6 +31,14 @@ def _folder(tmp_path, scene, timing, n=4, motion=None):
     for i, s in enumerate(sim):
         write_image(src / f"f{i:03d}.png", s.rolling)
     return src, sim
+
+
+def stmap_to_maps(stmap):
+    """Read an STMap as a compositing app does: R = (x + 0.5) / w, G = 1 - (y + 0.5) / h."""
+    h, w = stmap.shape[:2]
+    st = stmap[..., :2].astype(np.float64) / 65535.0
+    return ((st[..., 0] * w - 0.5).astype(np.float32),
+            ((1.0 - st[..., 1]) * h - 0.5).astype(np.float32))
 
 
 @pytest.mark.parametrize("method", ["paper", "dense"])

@@ -68,9 +68,10 @@ def _timing_options(f: Callable) -> Callable:
 def _config_options(per_clip: bool) -> Callable[[Callable], Callable]:
     """Add one flag per :data:`unjello.config.OPTIONS` entry, and ``--preset``.
 
-    The flags carry no defaults of their own: what is not given on the command line
-    comes from the preset, else from :class:`~unjello.config.CorrectionConfig`'s
-    defaults (shown in ``--help``).
+    The flags carry no defaults and no checks of their own: what is not given on the
+    command line comes from the preset, else from
+    :class:`~unjello.config.CorrectionConfig`'s defaults (shown in ``--help``), and what
+    is given is read and checked by the library.
     """
     defaults = CorrectionConfig()
 
@@ -83,15 +84,15 @@ def _config_options(per_clip: bool) -> Callable[[Callable], Callable]:
                 continue
             default = defaults.option(opt.name)
             help_text = opt.help + (f" [default: {default}]" if default not in (None, False)
-                                    and opt.name not in ("direction", "reference") else "")
+                                    else "")
             if opt.kind == "flag":
                 f = click.option(opt.flag, opt.name, is_flag=True, default=None,
                                  help=help_text)(f)
-            else:
-                kind: Any = (click.Choice(opt.choices) if opt.choices else
-                             click.Path(path_type=Path) if opt.kind == "path" else str)
-                f = click.option(opt.flag, opt.name, type=kind, default=None,
-                                 help=help_text)(f)
+            else:  # text: the library reads and checks it (CorrectionConfig.with_options)
+                metavar = ("[" + "|".join(opt.choices) + "]" if opt.choices else
+                           {"int": "INTEGER", "float": "NUMBER"}.get(opt.kind, opt.kind.upper()))
+                f = click.option(opt.flag, opt.name, default=None, help=help_text,
+                                 metavar=metavar)(f)
         return f
 
     return decorate

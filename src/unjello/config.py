@@ -229,26 +229,26 @@ def _replace_paths(obj: Any, changes: dict[str, Any], origins: dict[str, str]) -
         raise SettingsError(str(exc)) from None
 
 
-def _number(kind: type) -> Callable[[Any], Any]:
-    def convert(value: Any) -> Any:
-        if value is None:
-            return None
+def _number(name: str, kind: type, value: Any) -> Any:
+    """Read a number given as a number or as text; integers must be whole."""
+    if value is None:
+        return None
+    try:
         if isinstance(value, bool):
-            raise SettingsError(f"expected a number, got {value!r}")
-        try:
-            number = float(value)
-            if kind is int:
-                if not number.is_integer():
-                    raise ValueError
-                return int(number)
-            return number
-        except (TypeError, ValueError, OverflowError):
-            raise SettingsError(f"expected {'an integer' if kind is int else 'a number'}, "
-                                f"got {value!r}") from None
-    return convert
+            raise ValueError
+        number = float(value)
+        if kind is int:
+            if not number.is_integer():
+                raise ValueError
+            return int(number)
+        return number
+    except (TypeError, ValueError, OverflowError):
+        raise SettingsError(f"{name}={value!r} is not "
+                            f"{'an integer' if kind is int else 'a number'}") from None
 
 
-def _flag(value: Any) -> bool:
+def _flag(name: str, value: Any) -> bool:
+    """Read a switch given as a bool or as text (true/false, yes/no, on/off, 1/0)."""
     if isinstance(value, bool):
         return value
     text = str(value).strip().lower()
@@ -256,7 +256,7 @@ def _flag(value: Any) -> bool:
         return True
     if text in ("false", "0", "no", "off"):
         return False
-    raise SettingsError(f"expected true or false, got {value!r}")
+    raise SettingsError(f"{name}={value!r} is not true or false")
 
 
 @dataclass(frozen=True)
@@ -299,9 +299,9 @@ class Option:
     def convert(self, value: Any) -> Any:
         """Read a value as given (Python, JSON or flag text) into the field's value."""
         if self.kind == "flag":
-            value = _flag(value)
+            value = _flag(self.name, value)
         elif self.kind in ("int", "float"):
-            value = _number(int if self.kind == "int" else float)(value)
+            value = _number(self.name, int if self.kind == "int" else float, value)
         elif value is not None and self.kind == "path":
             value = str(value)
         return self.to_field(value) if self.to_field is not None else value

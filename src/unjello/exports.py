@@ -20,7 +20,7 @@ from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import field_maps, remap_maps, resize_maps
 
-__all__ = ["backward_maps", "maps_to_coded", "stmap_image", "stmap_to_maps", "write_stmap",
+__all__ = ["backward_maps", "maps_to_coded", "stmap_image", "write_stmap",
            "plot_trajectory", "side_by_side", "side_by_side_planes", "SideOutputs"]
 
 
@@ -72,15 +72,6 @@ def stmap_image(map_x: np.ndarray, map_y: np.ndarray) -> np.ndarray:
     t = 1.0 - (map_y + 0.5) / h
     rgb = np.stack([s, t, np.zeros_like(s)], axis=-1)
     return np.clip(np.rint(rgb * 65535.0), 0, 65535).astype(np.uint16)
-
-
-def stmap_to_maps(stmap: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Decode :func:`stmap_image` back into ``cv2.remap`` maps."""
-    h, w = stmap.shape[:2]
-    st = stmap[..., :2].astype(np.float64) / 65535.0
-    map_x = st[..., 0] * w - 0.5
-    map_y = (1.0 - st[..., 1]) * h - 0.5
-    return map_x.astype(np.float32), map_y.astype(np.float32)
 
 
 def write_stmap(folder: str | os.PathLike, motion: FrameMotion, timing: SensorTiming,
