@@ -105,7 +105,11 @@ def test_readout_in_ms_uses_the_clips_own_frame_rate(tmp_path, scene):
     make_clip(src, scene, n=6, fps=25)
     res = run("correct", src, "-o", tmp_path / "o.mp4", "--readout", "36ms", "--json")
     assert res.returncode == 0, res.stderr
-    assert json.loads(res.stdout)["readout"] == pytest.approx(0.9, abs=1e-3)
+    doc = json.loads(res.stdout)
+    assert doc["readout"] == pytest.approx(0.9, abs=1e-3)
+    assert doc["sources"] == {"readout": "command line", "fps": "the video",
+                              "direction": "default", "reference": "default"}
+    assert doc["frame_rate"] == pytest.approx(25.0, abs=0.01)
     # More than a frame interval at this clip's rate is refused, in one line.
     line = clean_failure(run("correct", src, "-o", tmp_path / "p.mp4", "--readout", "41ms"))
     assert "41 ms is 1.025 of the frame interval at 25" in line

@@ -170,11 +170,14 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
         if not quiet or m.startswith("warning"):
             click.echo(m, err=True)
 
+    decided: dict[str, Any] = {}
     t0 = time.perf_counter()
     with _progress("correcting", quiet or as_json) as progress:
         traj = correct_video(input, output, config, overwrite=overwrite,
                              motion_out=motion_out, motion_in=motion_in, preview=preview,
-                             stmap=stmap, progress=progress, log=log)
+                             stmap=stmap, progress=progress, log=log,
+                             on_timing=lambda r: decided.update(fps=r.fps,
+                                                                sources=dict(r.sources)))
     seconds = time.perf_counter() - t0
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
@@ -196,9 +199,11 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "direction": traj.timing.direction, "reference": traj.timing.reference,
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
             "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
+            "frame_rate": decided["fps"], "sources": decided["sources"],
             "messages": messages}))
     elif not quiet:
-        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g}, "
+        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g} "
+                   f"({decided['sources']['readout']}), "
                    f"{len(traj) / max(seconds, 1e-9):.1f} fps)", err=True)
 
 

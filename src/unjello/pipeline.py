@@ -227,6 +227,7 @@ def correct_video(
     stmap: str | os.PathLike | None = None,
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
+    on_timing: Callable[[ResolvedTiming], None] | None = None,
 ) -> Trajectory:
     """Correct a video file, or a folder of frames, into ``dst``.
 
@@ -255,6 +256,9 @@ def correct_video(
         Called as ``progress(done, total)`` after each frame (``total`` may be 0).
     log : callable, optional
         Receives one-line messages (where the readout came from, warnings).
+    on_timing : callable, optional
+        Called once with the :class:`~unjello.config.ResolvedTiming`: the readout,
+        direction, reference and frame rate used, and where each came from.
 
     Returns
     -------
@@ -285,6 +289,8 @@ def correct_video(
         for message in resolved.messages:
             if log:
                 log(message)
+        if on_timing:
+            on_timing(resolved)
         gyro_log = None
         if config.method == "gyro" and given is None:
             path = config.gyro.path or str(find_gyro_log(src_p))
