@@ -24,7 +24,7 @@ t, rates = unjello.gyro_samples(motion, focal=2560.0, duration=45 / 30,
 with tempfile.TemporaryDirectory() as tmp:
     log = Path(tmp) / "clip.gyro.csv"
     unjello.write_gyro(log, t, rates)
-    config = unjello.CorrectionConfig(method="gyro", gyro=unjello.GyroConfig(path=str(log)))
+    config = unjello.CorrectionConfig().with_options(gyro=str(log))  # implies method="gyro"
     corrected, trajectory = unjello.correct_frames([f.rolling for f in clip], timing,
                                                    config=config)
 print(trajectory.frames[0].note)
