@@ -65,6 +65,9 @@ def _timing_options(f: Callable) -> Callable:
                              "interval (0 < r <= 1) or milliseconds (15.7ms).")(f)
 
 
+_METAVARS = {"int": "INTEGER", "float": "NUMBER", "path": "PATH"}
+
+
 def _config_options(per_clip: bool) -> Callable[[Callable], Callable]:
     """Add one flag per :data:`unjello.config.OPTIONS` entry, and ``--preset``.
 
@@ -90,7 +93,7 @@ def _config_options(per_clip: bool) -> Callable[[Callable], Callable]:
                                  help=help_text)(f)
             else:  # text: the library reads and checks it (CorrectionConfig.with_options)
                 metavar = ("[" + "|".join(opt.choices) + "]" if opt.choices else
-                           {"int": "INTEGER", "float": "NUMBER"}.get(opt.kind, opt.kind.upper()))
+                           _METAVARS.get(opt.kind, "TEXT"))
                 f = click.option(opt.flag, opt.name, default=None, help=help_text,
                                  metavar=metavar)(f)
         return f
@@ -112,6 +115,7 @@ def _flagify(message: str) -> str:
     """Say a library message in flags: ``overwrite=True`` -> ``-y``, ``gyro=`` -> ``--gyro``."""
     message = message.replace("pass overwrite=True to replace it", "pass -y to overwrite it")
     message = message.replace("overwrite=True", "-y")
+
     def flag(m: re.Match, gap: str) -> str:
         return OPTIONS[m.group(1)].flag + gap if m.group(1) in OPTIONS else m.group(0)
 
