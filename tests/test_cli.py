@@ -261,7 +261,8 @@ def test_textureless_video_is_handled(tmp_path):
     res = run("correct", src, "-o", tmp_path / "o.mp4", "--json", "--motion-out",
               tmp_path / "m.json")
     assert res.returncode == 0, res.stderr
-    assert json.loads(res.stdout)["frames"] == 4
+    doc = json.loads(res.stdout)
+    assert doc["frames"] == 4 and doc["folded_frames"] == [] and doc["folds"] == [0.0] * 4
     # Nothing to see, nothing moved: every scanline stays where it is.
     frames = json.loads((tmp_path / "m.json").read_text())["frames"]
     assert max(np.abs(np.asarray(f["displacement"])).max() for f in frames) < 0.05

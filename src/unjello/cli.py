@@ -23,6 +23,7 @@ from . import __version__
 from .config import OPTIONS, PRESETS, CorrectionConfig
 from .errors import UnjelloError
 from .io.video import EncodeOptions
+from .motion.dense import FOLD_WARNING
 from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
 
 __all__ = ["main", "cli"]
@@ -192,6 +193,12 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
                      if f.note.startswith("vibration detected")), None)
     if detected:
         log(f"{detected}, as with --vibration on (--vibration off: never)")
+    folded = [f for f in traj.frames if f.folds > FOLD_WARNING]
+    if folded:
+        worst = max(folded, key=lambda f: f.folds)
+        log(f"warning: the correction folds or tears the picture on {len(folded)} frame(s) "
+            f"(worst: {100 * worst.folds:.1f}% of frame {worst.index}): motion that unjello "
+            "does not follow, such as a fast-spinning object; compare them with the input")
     fallback = float(np.mean([f.fallback for f in traj.frames])) if len(traj) else 0.0
     if fallback > 0.1:
         log(f"warning: the flow was unreliable on {100 * fallback:.0f}% of the pixels (flat "
@@ -203,6 +210,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "direction": traj.timing.direction, "reference": traj.timing.reference,
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
             "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
+            "folded_frames": [f.index for f in folded],
+            "folds": [round(f.folds, 4) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
             "messages": messages}))
     elif not quiet:

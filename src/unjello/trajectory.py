@@ -14,7 +14,8 @@ The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the meth
 timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
-pixels on the camera motion), ``displacement`` and ``velocity`` as
+pixels on the camera motion), ``folds`` (share of pixels in blobs where the correction
+map folds or tears), ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``.
@@ -61,6 +62,10 @@ class FrameMotion:
     fallback : float
         Dense methods: fraction of pixels whose flow was unreliable and which follow the
         camera (per-scanline) motion instead.
+    folds : float
+        Dense methods: fraction of pixels in blobs where the correction map folds or
+        tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
+        not followed, such as a fast-spinning object.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -79,6 +84,7 @@ class FrameMotion:
     ok: bool = True
     note: str = ""
     fallback: float = 0.0
+    folds: float = 0.0
     field: np.ndarray | None = None
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
 
@@ -105,6 +111,7 @@ class FrameMotion:
             "ok": bool(self.ok),
             "note": self.note,
             "fallback": round(float(self.fallback), 4),
+            "folds": round(float(self.folds), 4),
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
         }
@@ -137,6 +144,7 @@ class FrameMotion:
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
             fallback=float(d.get("fallback", 0.0)),
+            folds=float(d.get("folds", 0.0)),
             field=field,
         )
 

@@ -57,9 +57,15 @@ from .flow import (
     patch_cost,
     row_flows,
 )
+from .safety import fold_share
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
-__all__ = ["DenseConfig", "DenseMethod", "snap_to_global"]
+__all__ = ["DenseConfig", "DenseMethod", "snap_to_global", "FOLD_WARNING"]
+
+#: A frame whose map folds or tears in blobs over more than this share of its pixels is
+#: reported: the real spinners clip's torn frames show 0.2-0.6 %, the research pairs at
+#: most 0.15 %, the Carla town sequence 0.03 % (``docs/measurements.md``).
+FOLD_WARNING = 0.002
 
 @dataclass(frozen=True)
 class DenseConfig:
@@ -545,6 +551,10 @@ class DenseMethod:
         frac = float(fallback.mean())
         note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
             frac > 0.05) else ""
+        folds = fold_share(field)
+        if folds > FOLD_WARNING:
+            note = "; ".join(n for n in (note, f"the correction folds or tears {100 * folds:.1f}%"
+                                         " of the picture (motion not followed)") if n)
         note = "; ".join(n for n in (self._note, note) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
@@ -552,7 +562,8 @@ class DenseMethod:
         neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, field=field, neighbours=neighbours)
+                           note=note, fallback=frac, folds=folds, field=field,
+                           neighbours=neighbours)
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]

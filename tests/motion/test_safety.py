@@ -1,0 +1,49 @@
+"""Do no harm: folds and tears of a correction map are found, occlusion edges are not."""
+
+import numpy as np
+import pytest
+
+from unjello.motion.safety import FOLD, TEAR, fold_share, map_jacobian
+
+
+def test_jacobian_of_known_maps():
+    h, w = 30, 40
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+    shift = np.dstack([np.full((h, w), 3.0), np.full((h, w), -2.0)])
+    assert np.allclose(map_jacobian(shift), 1.0)  # a translation keeps areas
+    skew = np.dstack([0.3 * ys, np.zeros((h, w))])  # a rolling-shutter skew: a shear
+    assert np.allclose(map_jacobian(skew), 1.0)
+    squeeze = np.dstack([0.2 * xs, 0.1 * ys])  # a stretch of the rows
+    assert np.allclose(map_jacobian(squeeze), 0.8 * 0.9)
+    turned = np.dstack([2.0 * xs, np.zeros((h, w))])  # p = s - 2s: mirrored
+    assert np.all(map_jacobian(turned) < FOLD)
+
+
+def test_blobs_count_thin_occlusion_edges_do_not():
+    h, w = 60, 80
+    field = np.zeros((h, w, 2), np.float32)
+    field[:, 40:, 0] = 6.0  # a nearer layer moving 6 px more: a fold along one column
+    assert fold_share(field) == 0.0
+    xs = np.arange(12, dtype=np.float32)
+    field[20:32, 10:22, 0] = 6.0 * xs  # a patch whose motion flies apart: a blob
+    assert fold_share(field) == pytest.approx(12 * 12 / (h * w), rel=0.35)
+    assert TEAR > 1 > FOLD
+
+
+def test_the_real_spinners_are_reported_and_the_research_pairs_are_not(shared_data):
+    from unjello.io.frames import list_frames, read_image
+    from unjello.motion.dense import FOLD_WARNING
+    from unjello.pipeline import correct_frames
+    from unjello.timing import SensorTiming
+
+    spin = [read_image(f) for f in list_frames(shared_data / "sequences" / "spinners_rs")]
+    _, traj = correct_frames(spin, SensorTiming(1.0))
+    folds = [f.folds for f in traj.frames]
+    # Measured: 0.29, 0.23, 0.58, 0.38, 0.18, 0.03 % (frames 1 and 3 look torn).
+    assert sum(v > FOLD_WARNING for v in folds) >= 3
+    assert "folds or tears" in traj.frames[2].note
+    for pair in ("fastec/pair_12", "fastec/pair_03", "carla/pair_08"):  # the highest pairs
+        root = shared_data / "pairs" / pair
+        frames = [read_image(root / f"rs_{i}.png") for i in (0, 1)]
+        _, traj = correct_frames(frames, SensorTiming(1.0))
+        assert max(f.folds for f in traj.frames) < FOLD_WARNING, pair
