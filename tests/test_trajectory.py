@@ -19,8 +19,8 @@ def _traj(with_field=False):
         fld = (np.dstack([np.full((h, w), 0.5 * n), np.linspace(0, 1, w)[None].repeat(h, 0)])
                .astype(np.float32) if with_field else None)
         frames.append(FrameMotion(n, float(n), disp, vel, ok=n != 1,
-                                  note="bridged" if n == 1 else "", fallback=0.1 * n, folds=0.001 * n,
-                                  field=fld))
+                                  note="bridged" if n == 1 else "", fallback=0.1 * n,
+                                  folds=0.001 * n, field=fld))
     return Trajectory(SensorTiming(0.8, "left-right", "first"), (w, h), frames, "dense")
 
 
