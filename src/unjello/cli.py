@@ -285,7 +285,8 @@ def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) ->
 @click.option("--truth-motion", type=click.Path(path_type=Path),
               help="True trajectory JSON (default <truth>.motion.json).")
 @click.option("--motion", default="pan", show_default=True,
-              help="pan, stop, diagonal, shake, jello, or a JSON trajectory file.")
+              help="pan, stop, diagonal, shake, jello, whip (still, then --speed), or a "
+                   "JSON trajectory file.")
 @_timing_options
 @click.option("--frames", type=click.IntRange(1, 100000), default=30, show_default=True)
 @click.option("--fps", type=float, help="Frame rate (default: the source's, else 30).")

@@ -51,7 +51,7 @@ from .trajectory import FrameMotion, Trajectory
 __all__ = ["Motion", "MOTIONS", "SCENES", "Layer", "SimulatedFrame", "simulate",
            "motion_from_spec", "scene_layers", "gyro_samples", "read_scene", "simulate_clip"]
 
-MOTIONS = ("pan", "stop", "diagonal", "shake", "jello")
+MOTIONS = ("pan", "stop", "diagonal", "shake", "jello", "whip")
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,9 @@ class Motion:
         Scale of the shake/jello amplitudes (1 = the defaults below).
     stop_at : float
         Time (frames) of the sudden stop of ``'stop'``.
+    start_at : float
+        Time (frames) a ``'whip'`` pan starts from still; it reaches ``speed`` 1.5 frame
+        intervals later (a whip pan, or a car pulling away, films a still start).
     knots : tuple
         ``(t, dx, dy)`` arrays of a ``'spline'`` motion, ``t`` in frames.
     """
@@ -80,6 +83,7 @@ class Motion:
     amplitude: float = 1.0
     stop_at: float = 5.0
     knots: tuple = ()
+    start_at: float = 2.0
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
         """Return ``D(t)`` as an array of shape ``t.shape + (2,)``."""
@@ -92,6 +96,12 @@ class Motion:
         if self.kind == "stop":
             tt = np.minimum(t, self.stop_at)
             return np.stack([self.speed * tt, z], axis=-1)
+        if self.kind == "whip":
+            ramp = 1.5
+            tt = t - self.start_at
+            x = np.where(tt < 0, 0.0, np.where(tt < ramp, self.speed * tt ** 2 / (2 * ramp),
+                                               self.speed * (tt - ramp / 2)))
+            return np.stack([x, z], axis=-1)
         if self.kind == "shake":
             sec = t / self.fps
             # (Hz, amplitude x px, amplitude y px, phase)

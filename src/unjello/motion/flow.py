@@ -16,8 +16,9 @@ import numpy as np
 from ..errors import SettingsError
 from ..timing import pixel_grid
 
-__all__ = ["PRESETS", "FlowSettings", "optical_flow", "landing", "consistent", "row_flows",
-           "half_row_flows", "invert_flow", "patch_cost", "refine_motion_edges", "flow_pair"]
+__all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
+           "consistent", "row_flows", "half_row_flows", "invert_flow", "patch_cost",
+           "refine_motion_edges", "flow_pair"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -28,10 +29,75 @@ PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
 # get flow as fine as large ones (``docs/tuning.md``).
 _FULL_RES_WIDTH = 480
 
+#: Motion of at least this share of the frame's width per frame counts as large: DIS,
+#: starting from zero flow at its coarsest level, then locks onto an alias of repetitive
+#: texture, and a second run starts from the frame's global translation
+#: (:func:`global_shift`). The research pairs move at most 10 % (``docs/tuning.md``).
+LARGE_MOTION = 0.12
+#: The width of the copies the global translation is measured on, and the phase
+#: correlation response below which it is not trusted.
+_SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
+# Side (px) of the patches whose photometric cost picks between the two runs.
+_PICK_PATCH = 15
+
+
+def global_shift(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
+                 ) -> tuple[np.ndarray, float]:
+    """Measure the frame's dominant translation ``t`` (``a(s) ~ b(s + t)``).
+
+    By phase correlation, on copies ``width`` px wide with a Hann window
+    (``cv2.phaseCorrelate`` windows its inputs in place: it gets copies).
+
+    Returns
+    -------
+    shift : ndarray of shape (2,)
+        ``(dx, dy)`` in pixels of ``a``.
+    response : float
+        The correlation peak's strength (0-1): low for no dominant translation.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> b = cv2.GaussianBlur(rng.uniform(0, 255, (240, 320)).astype(np.float32), (0, 0), 3)
+    >>> a = np.roll(b, (-5, -40), axis=(0, 1))  # a(s) = b(s + (40, 5))
+    >>> shift, response = global_shift(a, b)
+    >>> np.round(shift).tolist(), response > 0.3
+    ([40.0, 5.0], True)
+    """
+    h, w = a.shape[:2]
+    k = min(1.0, width / w)
+    size = (max(8, round(w * k)), max(8, round(h * k)))
+    sa = cv2.resize(np.asarray(a, np.float32), size, interpolation=cv2.INTER_AREA)
+    sb = cv2.resize(np.asarray(b, np.float32), size, interpolation=cv2.INTER_AREA)
+    window = cv2.createHanningWindow(size, cv2.CV_32F)
+    (dx, dy), response = cv2.phaseCorrelate(sa.copy(), sb.copy(), window)
+    return np.array([dx * w / size[0], dy * h / size[1]], np.float32), float(response)
+
+
+def _pick_by_cost(a: np.ndarray, b: np.ndarray, flows: list[np.ndarray]) -> np.ndarray:
+    """Per pixel, the flow whose patch matches ``b`` best (ties keep the first)."""
+    h, w = a.shape
+    gx, gy = pixel_grid(h, w)
+    af = a.astype(np.float32)
+    bf = b.astype(np.float32)
+    best = flows[0]
+    best_cost = patch_cost(af, bf, gx, gy, best, _PICK_PATCH)
+    for other in flows[1:]:
+        cost = patch_cost(af, bf, gx, gy, other, _PICK_PATCH)
+        better = cost < best_cost
+        best = np.where(better[..., None], other, best)
+        best_cost = np.minimum(cost, best_cost)
+    return best
+
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  max_width: int = 960, finest_scale: int | None = None,
                  refinement: int | None = None) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
+
+    Where the frame's global translation (:func:`global_shift`) is large
+    (:data:`LARGE_MOTION`), DIS runs a second time starting from it, and each pixel keeps
+    the run whose flow matches ``b`` better over a patch around it: a whip pan over grass
+    or brick is then followed instead of an alias of its texture.
 
     Parameters
     ----------
@@ -68,6 +134,11 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     if refinement is not None:
         dis.setVariationalRefinementIterations(refinement)
     flow = dis.calc(a8, b8, None)
+    shift, response = global_shift(a8, b8)
+    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1] and response >= _SHIFT_RESPONSE:
+        start = np.empty_like(flow)
+        start[...] = shift
+        flow = _pick_by_cost(a8, b8, [flow, dis.calc(a8, b8, start)])
     if scale < 1.0:
         sx, sy = w / a8.shape[1], h / a8.shape[0]
         flow = cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR)
