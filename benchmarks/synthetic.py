@@ -48,7 +48,7 @@ CASES = {
     "whip pan 18 %, grass": (Motion("whip", speed=57.6), "planar", 0.0, False, "grass"),
     "whip pan 18 %, gravel": (Motion("whip", speed=57.6), "planar", 0.0, False, "gravel"),
     "whip pan 18 %, brick": (Motion("whip", speed=57.6), "planar", 0.0, False, "brick"),
-    "whip pan 18 % + blur, noise, CRF 26": (Motion("whip", speed=57.6), "planar", 0.3, True),
+    "whip 18 % + blur, noise, CRF 26": (Motion("whip", speed=57.6), "planar", 0.3, True),
 }
 
 

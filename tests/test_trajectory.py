@@ -20,7 +20,7 @@ def _traj(with_field=False):
                .astype(np.float32) if with_field else None)
         frames.append(FrameMotion(n, float(n), disp, vel, ok=n != 1,
                                   note="bridged" if n == 1 else "", fallback=0.1 * n,
-                                  folds=0.001 * n, field=fld))
+                                  entering=0.05 * n, folds=0.001 * n, field=fld))
     return Trajectory(SensorTiming(0.8, "left-right", "first"), (w, h), frames, "dense")
 
 
@@ -34,6 +34,7 @@ def test_json_round_trip_keeps_everything_the_schema_names(tmp_path):
     for a, b in zip(traj.frames, back.frames, strict=True):
         assert (a.index, a.start, a.ok, a.note) == (b.index, b.start, b.ok, b.note)
         assert a.fallback == pytest.approx(b.fallback) and a.folds == pytest.approx(b.folds)
+        assert a.entering == pytest.approx(b.entering)
         assert np.allclose(a.displacement, b.displacement, atol=1e-4)
         assert np.allclose(a.velocity, b.velocity, atol=1e-4)
 

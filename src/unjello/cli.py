@@ -200,9 +200,14 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             f"(worst: {100 * worst.folds:.1f}% of frame {worst.index}): motion that unjello "
             "does not follow, such as a fast-spinning object; compare them with the input")
     fallback = float(np.mean([f.fallback for f in traj.frames])) if len(traj) else 0.0
-    if fallback > 0.1:
-        log(f"warning: the flow was unreliable on {100 * fallback:.0f}% of the pixels (flat "
-            "areas, occlusions); they follow the camera's motion instead")
+    entering = float(np.mean([f.entering for f in traj.frames])) if len(traj) else 0.0
+    if fallback - entering > 0.1:
+        log(f"warning: the flow was unreliable on {100 * (fallback - entering):.0f}% of the "
+            "pixels (flat areas, occlusions, fast-moving objects); they take the motion of "
+            "their reliable surroundings")
+    if entering > 0.1:
+        log(f"{100 * entering:.0f}% of the pixels show content entering the frame, which no "
+            "neighbour saw: they take the motion of their surroundings")
     if as_json:
         click.echo(json.dumps({
             "input": str(input), "output": str(output), "frames": len(traj),
@@ -210,6 +215,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "direction": traj.timing.direction, "reference": traj.timing.reference,
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
             "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
+            "entering_fraction": round(entering, 4),
             "folded_frames": [f.index for f in folded],
             "folds": [round(f.folds, 4) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],

@@ -14,8 +14,9 @@ The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the meth
 timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
-pixels on the camera motion), ``folds`` (share of pixels in blobs where the correction
-map folds or tears), ``displacement`` and ``velocity`` as
+pixels on the camera motion), ``entering`` (of those, content entering the frame),
+``folds`` (share of pixels in blobs where the correction map folds or tears),
+``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``.
@@ -62,6 +63,9 @@ class FrameMotion:
     fallback : float
         Dense methods: fraction of pixels whose flow was unreliable and which follow the
         camera (per-scanline) motion instead.
+    entering : float
+        Dense methods: the part of ``fallback`` that is content entering the frame (no
+        neighbour saw it), as opposed to flow that failed its check.
     folds : float
         Dense methods: fraction of pixels in blobs where the correction map folds or
         tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
@@ -84,6 +88,7 @@ class FrameMotion:
     ok: bool = True
     note: str = ""
     fallback: float = 0.0
+    entering: float = 0.0
     folds: float = 0.0
     field: np.ndarray | None = None
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
@@ -111,6 +116,7 @@ class FrameMotion:
             "ok": bool(self.ok),
             "note": self.note,
             "fallback": round(float(self.fallback), 4),
+            "entering": round(float(self.entering), 4),
             "folds": round(float(self.folds), 4),
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
@@ -144,6 +150,7 @@ class FrameMotion:
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
             fallback=float(d.get("fallback", 0.0)),
+            entering=float(d.get("entering", 0.0)),
             folds=float(d.get("folds", 0.0)),
             field=field,
         )

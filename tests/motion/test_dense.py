@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from unjello.motion.dense import _advected_velocity, snap_to_global
+from unjello.motion.dense import DenseConfig, DenseMethod, _advected_velocity, snap_to_global
 
 
 def test_advected_velocity_follows_a_zoom_ahead():
@@ -56,3 +56,24 @@ def test_snap_to_global_undoes_flow_bleeding_and_keeps_the_object():
     assert err_out[inner][far[inner]].mean() < err_in[inner][far[inner]].mean() / 2
     core = cv2.erode(moved.astype(np.uint8), np.ones((9, 9))).astype(bool)
     assert np.array_equal(snapped[core], given[core])
+
+
+def test_content_entering_the_frame_is_told_apart_from_failed_flow(scene):
+    """A pan brings new content in at one edge: no flow can match it, and it is reported
+    as entering the frame, not as unreliable flow."""
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    w, speed = 224, 16.0
+    sim = list(simulate(scene, Motion("pan", speed=speed), SensorTiming(1.0), 4, size=(w, 160)))
+    method = DenseMethod(SensorTiming(1.0), DenseConfig())
+    out = []
+    for k, s in enumerate(sim):
+        out += method.push(s.rolling.mean(axis=2).astype(np.uint8), float(k))
+    out += method.flush()
+    # The first and last frames see one neighbour: a band of about the pan's width enters.
+    for fm in (out[0], out[-1]):
+        assert 0.5 * speed / w < fm.entering <= fm.fallback
+        assert fm.entering < 2.0 * speed / w
+    # The middle frames see both neighbours: what one misses, the other saw.
+    assert all(fm.entering < 0.01 for fm in out[1:-1])

@@ -545,12 +545,12 @@ class DenseMethod:
             disp_rows = cam_disp + u_rows * (t_rows - t_ref)[:, None]
             return FrameMotion(fr.index, fr.start, to_full_rows(disp_rows),
                                to_full_rows(velocity), ok=True, note=self._note)
-        field_resid, fallback = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
-                                               c_at_pixels)
+        field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
+                                                         c_at_pixels)
         field = cam_disp[:, None, :] - field_resid
-        frac = float(fallback.mean())
-        note = f"{100 * frac:.0f}% of pixels on the camera model (flow unreliable)" if (
-            frac > 0.05) else ""
+        frac, new = float(fallback.mean()), float(entering.mean())
+        note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
+                "the frame, the rest unreliable flow)") if frac > 0.05 else ""
         folds = fold_share(field)
         if folds > FOLD_WARNING:
             note = "; ".join(n for n in (note, f"the correction folds or tears {100 * folds:.1f}%"
@@ -562,12 +562,12 @@ class DenseMethod:
         neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, folds=folds, field=field,
+                           note=note, fallback=frac, entering=new, folds=folds, field=field,
                            neighbours=neighbours)
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each pixel's motion beyond the camera's, carried to the reference time.
 
         Returns
@@ -581,6 +581,9 @@ class DenseMethod:
             neighbours' (Gaussian average), then a 5x5 median.
         fallback : ndarray of bool, shape (h, w)
             Pixels whose flow was unreliable on both sides.
+        entering : ndarray of bool, shape (h, w)
+            Those of them that no neighbour saw: content entering the frame (their flow
+            lands outside it on every side), which no flow can match.
         """
         h, w = fr.image.shape
         rho = self.timing.readout
@@ -588,11 +591,13 @@ class DenseMethod:
         t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
         c_s = cam_rows[:, None, :]
         sides = []
+        entering = np.ones((h, w), dtype=bool)  # no neighbour's flow lands inside
         neighbours = {f.index: f for f in self._frames}
         for flow, ok, other in ((fr.bwd, fr.bwd_ok, neighbours.get(fr.index - 1)),
                                 (fr.fwd, fr.fwd_ok, neighbours.get(fr.index + 1))):
             if flow is None or ok is None or other is None:
                 continue
+            entering &= ~landing(flow)[2]
             if self.config.snap_window:
                 flow = snap_to_global(fr.image, other.image, flow, ok, self.config.snap_window)
             t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
@@ -606,7 +611,7 @@ class DenseMethod:
                                                  self.config.fill_sigma))
             dt = (tr - t_s)[..., None]
             ahead = dt * vel - cam_disp[:, None, :]
-            return dt * _advected_velocity(vel, ok, flow, ahead), ~ok
+            return dt * _advected_velocity(vel, ok, flow, ahead), ~ok, entering
         field_resid = np.zeros((h, w, 2), np.float32)
         fallback = np.ones((h, w), dtype=bool)
         if len(sides) == 2:
@@ -625,4 +630,4 @@ class DenseMethod:
             fallback &= ~only
         field_resid = _smooth_field(_fill_unreliable(field_resid, ~fallback,
                                                      self.config.fill_sigma))
-        return field_resid, fallback
+        return field_resid, fallback, entering & fallback
