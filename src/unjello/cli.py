@@ -193,6 +193,12 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
                      if f.note.startswith("vibration detected")), None)
     if detected:
         log(f"{detected}, as with --vibration on (--vibration off: never)")
+    kept = [f for f in traj.frames if f.kept > 0]
+    if kept:
+        worst = max(kept, key=lambda f: f.kept)
+        log(f"warning: on {len(kept)} frame(s) the per-pixel motion folded or tore the picture "
+            f"(a fast-spinning object?); there it was put back on the camera's motion (at most "
+            f"{100 * worst.kept:.0f}% of frame {worst.index})")
     folded = [f for f in traj.frames if f.folds > FOLD_WARNING]
     if folded:
         worst = max(folded, key=lambda f: f.folds)
@@ -216,6 +222,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
             "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
             "entering_fraction": round(entering, 4),
+            "kept_frames": [f.index for f in kept],
             "folded_frames": [f.index for f in folded],
             "folds": [round(f.folds, 4) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],

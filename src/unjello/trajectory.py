@@ -15,7 +15,8 @@ timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
-``folds`` (share of pixels in blobs where the correction map folds or tears),
+``kept`` (share put back on the camera's motion because the per-pixel motion folded or
+tore the picture), ``folds`` (share where the applied map still folds or tears in blobs),
 ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
@@ -66,9 +67,12 @@ class FrameMotion:
     entering : float
         Dense methods: the part of ``fallback`` that is content entering the frame (no
         neighbour saw it), as opposed to flow that failed its check.
+    kept : float
+        Dense methods: fraction of pixels put back on the camera's motion because their
+        per-pixel motion folded or tore the picture (:func:`unjello.motion.safety.keep_whole`).
     folds : float
-        Dense methods: fraction of pixels in blobs where the correction map folds or
-        tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
+        Dense methods: fraction of pixels in blobs where the applied correction map folds
+        or tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
         not followed, such as a fast-spinning object.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
@@ -89,6 +93,7 @@ class FrameMotion:
     note: str = ""
     fallback: float = 0.0
     entering: float = 0.0
+    kept: float = 0.0
     folds: float = 0.0
     field: np.ndarray | None = None
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
@@ -117,6 +122,7 @@ class FrameMotion:
             "note": self.note,
             "fallback": round(float(self.fallback), 4),
             "entering": round(float(self.entering), 4),
+            "kept": round(float(self.kept), 4),
             "folds": round(float(self.folds), 4),
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
@@ -151,6 +157,7 @@ class FrameMotion:
             note=str(d.get("note", "")),
             fallback=float(d.get("fallback", 0.0)),
             entering=float(d.get("entering", 0.0)),
+            kept=float(d.get("kept", 0.0)),
             folds=float(d.get("folds", 0.0)),
             field=field,
         )

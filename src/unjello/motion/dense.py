@@ -57,7 +57,7 @@ from .flow import (
     patch_cost,
     row_flows,
 )
-from .safety import fold_share
+from .safety import fold_share, keep_whole
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
 __all__ = ["DenseConfig", "DenseMethod", "snap_to_global", "FOLD_WARNING"]
@@ -551,10 +551,18 @@ class DenseMethod:
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        folds = fold_share(field)
+        folds, kept = fold_share(field), 0.0
         if folds > FOLD_WARNING:
-            note = "; ".join(n for n in (note, f"the correction folds or tears {100 * folds:.1f}%"
-                                         " of the picture (motion not followed)") if n)
+            whole, share = keep_whole(field, cam_disp, fallback)
+            after = fold_share(whole)
+            if after < folds:  # never worse by its own measure
+                field, folds, kept = whole, after, share
+                note = "; ".join(n for n in (note, f"{100 * kept:.0f}% kept on the camera's "
+                                             "motion (the per-pixel motion folded or tore)")
+                                 if n)
+            if folds > FOLD_WARNING:
+                note = "; ".join(n for n in (note, f"the correction folds or tears "
+                                             f"{100 * folds:.1f}% of the picture") if n)
         note = "; ".join(n for n in (self._note, note) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
@@ -562,7 +570,8 @@ class DenseMethod:
         neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, entering=new, folds=folds, field=field,
+                           note=note, fallback=frac, entering=new, kept=kept, folds=folds,
+                           field=field,
                            neighbours=neighbours)
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,

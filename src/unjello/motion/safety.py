@@ -21,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share"]
+__all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "keep_whole"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
@@ -55,11 +55,20 @@ def map_jacobian(field: np.ndarray) -> np.ndarray:
     return ((1 - dxx) * (1 - dyy) - dxy * dyx).astype(np.float32)
 
 
-def fold_share(field: np.ndarray) -> float:
-    """Share of pixels in blobs where the map folds or tears.
+def fold_blobs(field: np.ndarray) -> np.ndarray:
+    """Pixels in blobs where the map folds or tears (bool, shape (h, w)).
 
     Pixels whose determinant is below :data:`FOLD` or above :data:`TEAR` and that survive
     an opening by a 3x3 disc (so not the thin lines of a correct map's occlusion edges).
+    """
+    det = map_jacobian(field)
+    bad = ((det < FOLD) | (det > TEAR)).astype(np.uint8)
+    return cv2.morphologyEx(bad, cv2.MORPH_OPEN,
+                            cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))).astype(bool)
+
+
+def fold_share(field: np.ndarray) -> float:
+    """Share of pixels in blobs where the map folds or tears (:func:`fold_blobs`).
 
     Examples
     --------
@@ -68,8 +77,45 @@ def fold_share(field: np.ndarray) -> float:
     >>> 0.05 < fold_share(f) < 0.1, fold_share(np.zeros((40, 40, 2)))
     (True, 0.0)
     """
-    det = map_jacobian(field)
-    bad = ((det < FOLD) | (det > TEAR)).astype(np.uint8)
-    blobs = cv2.morphologyEx(bad, cv2.MORPH_OPEN,
-                             cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
-    return float(blobs.mean())
+    return float(fold_blobs(field).mean())
+
+
+def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
+               reach: int = 24, feather: float = 6.0) -> tuple[np.ndarray, float]:
+    """Put the places where the map folds or tears in blobs back on the camera's motion.
+
+    A blob of folds marks motion that cannot be right; the failed flow around it (pixels
+    whose flow failed its check, ``unreliable``, within ``reach`` px) belongs to the same
+    object, so it goes too. There the field becomes the camera's displacement: the
+    object is shown as the sensor saw it, not torn. The weight falls off smoothly (a
+    Gaussian of ``feather`` px) so that the seam does not tear either.
+
+    Parameters
+    ----------
+    field : ndarray of shape (h, w, 2)
+        Per-pixel displacement.
+    camera : ndarray of shape (h, 2)
+        The camera's displacement per scanline.
+    unreliable : ndarray of bool, shape (h, w)
+        Pixels whose flow failed its consistency check.
+    reach, feather : float
+        Distance (px) over which failed flow joins a blob's region, and the blend's width.
+
+    Returns
+    -------
+    field : ndarray of shape (h, w, 2)
+    kept : float
+        Share of pixels put (wholly or partly) on the camera's motion.
+    """
+    seeds = fold_blobs(field)
+    if not seeds.any():
+        return field, 0.0
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+    near = cv2.dilate(seeds.astype(np.uint8), disc).astype(bool)
+    region = (seeds | (near & unreliable)).astype(np.uint8)
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
+    region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, k)  # keep an object in one piece
+    weight = cv2.GaussianBlur(cv2.dilate(region, k).astype(np.float32), (0, 0), feather)
+    weight = np.maximum(weight, region.astype(np.float32))[..., None]
+    out = field * (1.0 - weight) + camera[:, None, :] * weight
+    return out.astype(field.dtype), float((weight > 0.01).mean())
