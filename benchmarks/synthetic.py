@@ -29,7 +29,8 @@ from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
 CASES = {
-    # name: (motion, scene layers, exposure, degrade[, frames][, skimage.data image])
+    # name: (motion, scene layers, exposure, degrade[, frames][, skimage.data image]
+    #        [, "score=inside": the displacement error on the layer, else on the scene])
     "pan": (Motion("pan", speed=7.3), "planar", 0.0, False),
     "diagonal pan": (Motion("diagonal", speed=6.1), "planar", 0.0, False),
     "pan then stop": (Motion("stop", speed=7.0, stop_at=6.0), "planar", 0.0, False),
@@ -49,6 +50,13 @@ CASES = {
     "whip pan 18 %, gravel": (Motion("whip", speed=57.6), "planar", 0.0, False, "gravel"),
     "whip pan 18 %, brick": (Motion("whip", speed=57.6), "planar", 0.0, False, "brick"),
     "whip 18 % + blur, noise, CRF 26": (Motion("whip", speed=57.6), "planar", 0.3, True),
+    # Spinning objects carried with a panning camera, scored on their own pixels and on
+    # the background around them (PSNR: the whole frame).
+    "propeller 6 rev/s (blades)": (Motion("pan", speed=5.0), "propeller", 0.0, False,
+                                   "score=inside"),
+    "propeller 6 rev/s (background)": (Motion("pan", speed=5.0), "propeller", 0.0, False),
+    "wheel 4 rev/s (wheel)": (Motion("pan", speed=5.0), "wheel", 0.0, False, "score=inside"),
+    "wheel 4 rev/s (background)": (Motion("pan", speed=5.0), "wheel", 0.0, False),
 }
 
 
@@ -79,7 +87,9 @@ def degrade(frames: list[np.ndarray], seed: int = 0) -> list[np.ndarray]:
 def run_case(name: str, frames: int, size: tuple[int, int]) -> dict:
     motion, layers, exposure, bad, *rest = CASES[name]
     frames = next((r for r in rest if isinstance(r, int)), frames)
-    scene = getattr(data, next((r for r in rest if isinstance(r, str)), "astronaut"))()
+    names = [r for r in rest if isinstance(r, str) and not r.startswith("score=")]
+    inside = "score=inside" in rest
+    scene = getattr(data, names[0] if names else "astronaut")()
     if scene.ndim == 2:
         scene = np.dstack([scene] * 3)
     timing = SensorTiming(1.0)
@@ -88,7 +98,8 @@ def run_case(name: str, frames: int, size: tuple[int, int]) -> dict:
     rolling = [s.rolling for s in sim]
     if bad:
         rolling = degrade(rolling)
-    masks = [s.layer == 0 if layers == "object" else None for s in sim]
+    masks = [None if s.layer is None or layers == "parallax" else
+             (s.layer != 0 if inside else s.layer == 0) for s in sim]
     unc = np.mean([displacement_error(None, s.motion, m) for s, m in zip(sim, masks, strict=True)])
     row = {"case": name, "frames": frames, "uncorrected_px": unc,
            "psnr_in": np.mean([psnr(r, s.truth, 12) for r, s in zip(rolling, sim, strict=True)])}

@@ -49,3 +49,28 @@ def test_unknown_motion():
 def test_motions_are_finite(kind):
     d = Motion(kind)(np.linspace(0, 30, 301))
     assert d.shape == (301, 2) and np.isfinite(d).all()
+
+
+@pytest.mark.parametrize("kind", ["propeller", "wheel"])
+def test_spinning_layers_have_exact_truth(scene, kind):
+    """A global shutter sees the spinning object as its truth; the truth's field moves each
+    of its pixels along the rotation."""
+    from unjello.simulate import scene_layers
+
+    tiny = list(simulate(scene, Motion("pan", speed=5.0), SensorTiming(1e-6), 2,
+                         size=(160, 120), layers=kind))
+    assert np.abs(tiny[1].rolling.astype(int) - tiny[1].truth).max() <= 1
+    rs = list(simulate(scene, Motion("pan", speed=5.0), SensorTiming(1.0), 2, size=(160, 120),
+                       layers=kind))[1]
+    on = rs.layer == 1
+    assert 0.03 < on.mean() < 0.3
+    layer = scene_layers(kind, scene[::-1].astype(np.float32), Motion("pan", speed=5.0),
+                         (160, 120))[0]
+    ys, xs = np.nonzero(on)
+    p = np.stack([xs, ys], axis=1).astype(float)
+    t_rows = SensorTiming(1.0).row_times(120, 1.0)[ys]
+    t_ref = SensorTiming(1.0).reference_time(120, 1.0)
+    expected = p - layer.place(layer.source(p, t_rows), np.full(len(p), t_ref))
+    assert np.allclose(rs.motion.field[ys, xs], expected, atol=1e-6)
+    # Far from the reference row the blades have turned a good way: tens of pixels.
+    assert np.abs(expected).max() > 10

@@ -212,7 +212,7 @@ def motion_from_spec(spec: str, fps: float = 30.0, speed: float = 8.0, amplitude
     return Motion("spline", fps, knots=(tuple(t), tuple(dx), tuple(dy)))
 
 
-SCENES = ("planar", "parallax", "object")
+SCENES = ("planar", "parallax", "object", "propeller", "wheel")
 
 
 @dataclass(frozen=True)
@@ -231,12 +231,33 @@ class Layer:
         ``D_layer(t)``, as :class:`Motion`: pixel ``q`` of the layer appears at
         ``position + q + D_layer(t)``. A layer nearer the camera than the scene moves
         more (parallax); an object moving on its own adds its own motion.
+    spin : float
+        Rotation about the layer's centre, radians per frame interval (a propeller, a
+        wheel): pixel ``q`` appears at ``position + c + R(spin t) (q - c) + D_layer(t)``.
     """
 
     image: np.ndarray
     alpha: np.ndarray
     position: tuple[float, float]
     motion: Callable[[np.ndarray], np.ndarray]
+    spin: float = 0.0
+
+    def place(self, q: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Return where layer pixels ``q`` (..., 2) appear in the frame at times ``t``."""
+        c = np.array([self.image.shape[1], self.image.shape[0]], np.float64) / 2.0
+        a = self.spin * np.asarray(t, np.float64)
+        d = np.asarray(q, np.float64) - c
+        rot = np.stack([np.cos(a) * d[..., 0] - np.sin(a) * d[..., 1],
+                        np.sin(a) * d[..., 0] + np.cos(a) * d[..., 1]], axis=-1)
+        return np.asarray(self.position) + c + rot + self.motion(t)
+
+    def source(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Return the layer pixel ``q`` that frame position ``p`` (..., 2) shows at ``t``."""
+        c = np.array([self.image.shape[1], self.image.shape[0]], np.float64) / 2.0
+        a = -self.spin * np.asarray(t, np.float64)
+        d = np.asarray(p, np.float64) - np.asarray(self.position) - c - self.motion(t)
+        return c + np.stack([np.cos(a) * d[..., 0] - np.sin(a) * d[..., 1],
+                             np.sin(a) * d[..., 0] + np.cos(a) * d[..., 1]], axis=-1)
 
 
 def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np.ndarray],
@@ -245,10 +266,13 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
 
     Parameters
     ----------
-    kind : {'planar', 'parallax', 'object'}
+    kind : {'planar', 'parallax', 'object', 'propeller', 'wheel'}
         ``planar``: none. ``parallax``: a second depth, a textured disc covering a third
         of the frame, twice as near as the background (moves 2x). ``object``: a disc
         moving on its own at (3.5, 1.2) px per frame over the static, panned scene.
+        ``propeller``: three textured blades spinning at 6 rev/s (at 30 fps) about the
+        frame's centre, carried with the camera (a drone's own propeller, say).
+        ``wheel``: a textured disc with five spokes' cut-outs spinning at 4 rev/s.
     image : ndarray
         Texture source for the layer (a different image from the background is best).
     camera : callable
@@ -274,6 +298,20 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
         own = np.array([3.5, 1.2])
         return [Layer(tex, alpha, pos,
                       lambda t: camera(t) + np.asarray(t)[..., None] * own)]
+    if kind in ("propeller", "wheel"):
+        ang = np.arctan2(yy - r + 0.5, xx - r + 0.5)
+        rad = np.hypot(xx - r + 0.5, yy - r + 0.5)
+        if kind == "propeller":  # three blades, a hub
+            blade = np.cos(3 * ang) > 0.6
+            shape = ((blade & (rad < r)) | (rad < 0.18 * r)).astype(np.float32)
+            spin = 2 * np.pi * 6.0 / 30.0
+        else:  # a rim, a hub and five spokes
+            spokes = np.cos(5 * ang) > 0.8
+            shape = ((rad > 0.8 * r) | (rad < 0.25 * r) | spokes).astype(np.float32)
+            shape *= (rad < r)
+            spin = 2 * np.pi * 4.0 / 30.0
+        alpha = cv2.GaussianBlur(shape, (0, 0), 0.7)
+        return [Layer(tex, alpha, pos, camera, spin=spin)]
     raise SettingsError(f"unknown scene {kind!r}; use one of {', '.join(SCENES)}")
 
 
@@ -291,14 +329,22 @@ class SimulatedFrame:
     layer: np.ndarray | None = None
 
 
-def _render_layer(layer: Layer, disp: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """Layer colour and alpha in the output frame for per-row displacements ``disp``."""
-    h = disp.shape[0]
-    map_x = (np.arange(width, dtype=np.float32)[None, :]
-             - (layer.position[0] + disp[:, 0])[:, None].astype(np.float32))
-    map_y = np.broadcast_to((np.arange(h) - layer.position[1] - disp[:, 1])[:, None]
-                            .astype(np.float32), (h, width))
-    map_y = np.ascontiguousarray(map_y)
+def _render_layer(layer: Layer, times: np.ndarray, width: int
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Layer colour and alpha in the output frame, row ``r`` at ``times[r]``."""
+    h = times.shape[0]
+    if layer.spin:
+        grid = np.stack(np.meshgrid(np.arange(width), np.arange(h)), axis=-1)
+        q = layer.source(grid, np.broadcast_to(times[:, None], (h, width)))
+        map_x = np.ascontiguousarray(q[..., 0], dtype=np.float32)
+        map_y = np.ascontiguousarray(q[..., 1], dtype=np.float32)
+    else:
+        disp = layer.motion(times)
+        map_x = (np.arange(width, dtype=np.float32)[None, :]
+                 - (layer.position[0] + disp[:, 0])[:, None].astype(np.float32))
+        map_y = np.ascontiguousarray(np.broadcast_to(
+            (np.arange(h) - layer.position[1] - disp[:, 1])[:, None].astype(np.float32),
+            (h, width)))
     img = cv2.remap(layer.image.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     a = cv2.remap(layer.alpha.astype(np.float32), map_x, map_y, cv2.INTER_LINEAR,
@@ -311,7 +357,7 @@ def _composite(base: np.ndarray, layers: list[Layer], times: np.ndarray, width: 
     out = base
     top = np.zeros(base.shape[:2], np.int32)
     for i, layer in enumerate(layers, start=1):
-        img, a = _render_layer(layer, layer.motion(times), width)
+        img, a = _render_layer(layer, times, width)
         aa = a[..., None] if out.ndim == 3 else a
         out = aa * img + (1 - aa) * out
         top[a > 0.5] = i
@@ -439,10 +485,13 @@ def simulate(
         field = None
         if layer_list:
             field = np.repeat(disp[:, None, :], ow, axis=1)
+            grid = np.stack(np.meshgrid(np.arange(ow), np.arange(oh)), axis=-1)
+            row_t = np.broadcast_to(t_rows[:, None], (oh, ow))
             for i, layer in enumerate(layer_list, start=1):
-                ld = layer.motion(t_rows) - layer.motion(np.array([t_ref]))[0]
                 sel = top == i
-                field[sel] = np.broadcast_to(ld[:, None, :], field.shape)[sel]
+                # Where the layer point a pixel shows was at the reference time.
+                q = layer.source(grid[sel], row_t[sel])
+                field[sel] = grid[sel] - layer.place(q, np.full(q.shape[0], t_ref))
         fm = FrameMotion(n, float(starts[n]), disp, vel, field=field)
         yield SimulatedFrame(
             rolling=_to_dtype(from_top_bottom(rs, timing.direction), dtype),
