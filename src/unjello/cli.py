@@ -197,7 +197,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
     if kept:
         worst = max(kept, key=lambda f: f.kept)
         log(f"warning: on {len(kept)} frame(s) the per-pixel motion folded or tore the picture "
-            f"(a fast-spinning object?); there it was put back on the camera's motion (at most "
+            f"(a fast-spinning object?); there it was given the motion around it (at most "
             f"{100 * worst.kept:.0f}% of frame {worst.index})")
     folded = [f for f in traj.frames if f.folds > FOLD_WARNING]
     if folded:

@@ -15,8 +15,8 @@ timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
-``kept`` (share put back on the camera's motion because the per-pixel motion folded or
-tore the picture), ``folds`` (share where the applied map still folds or tears in blobs),
+``kept`` (share given the motion around it because the per-pixel motion folded or tore
+the picture), ``folds`` (share where the applied map still folds or tears in blobs),
 ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
@@ -68,7 +68,7 @@ class FrameMotion:
         Dense methods: the part of ``fallback`` that is content entering the frame (no
         neighbour saw it), as opposed to flow that failed its check.
     kept : float
-        Dense methods: fraction of pixels put back on the camera's motion because their
+        Dense methods: fraction of pixels given the motion of their surroundings because their
         per-pixel motion folded or tore the picture (:func:`unjello.motion.safety.keep_whole`).
     folds : float
         Dense methods: fraction of pixels in blobs where the applied correction map folds

@@ -39,11 +39,11 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
     spin = [read_image(f) for f in list_frames(shared_data / "sequences" / "spinners_rs")]
     _, traj = correct_frames(spin, SensorTiming(1.0))
     # Measured: blob folds 0.29, 0.23, 0.58, 0.38, 0.18, 0.03 % as estimated; frames 1-3
-    # put partly back on the camera's motion (26, 40, 24 %), leaving 0.13, 0.03, 0.12 %;
-    # frame 0 (one neighbour) was not helped and is left as it was, 0.29 %.
+    # given the motion around them (26, 40, 24 %), leaving 0.00, 0.05, 0.10 %; frame 0
+    # (one neighbour) was not helped and is left as it was, 0.29 %.
     kept = [f.index for f in traj.frames if f.kept > 0]
     assert kept == [1, 2, 3]
-    assert "kept on the camera's motion" in traj.frames[2].note
+    assert "given the motion around it" in traj.frames[2].note
     assert max(f.folds for f in traj.frames) < 0.004
     assert all(f.folds < FOLD_WARNING for f in traj.frames[1:])
     for pair in ("fastec/pair_12", "fastec/pair_03", "carla/pair_08"):  # the highest pairs

@@ -557,8 +557,8 @@ class DenseMethod:
             after = fold_share(whole)
             if after < folds:  # never worse by its own measure
                 field, folds, kept = whole, after, share
-                note = "; ".join(n for n in (note, f"{100 * kept:.0f}% kept on the camera's "
-                                             "motion (the per-pixel motion folded or tore)")
+                note = "; ".join(n for n in (note, f"{100 * kept:.0f}% given the motion around "
+                                             "it (the per-pixel motion folded or tore)")
                                  if n)
             if folds > FOLD_WARNING:
                 note = "; ".join(n for n in (note, f"the correction folds or tears "

@@ -82,13 +82,15 @@ def fold_share(field: np.ndarray) -> float:
 
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                reach: int = 24, feather: float = 6.0) -> tuple[np.ndarray, float]:
-    """Put the places where the map folds or tears in blobs back on the camera's motion.
+    """Give the places where the map folds or tears in blobs the motion around them.
 
     A blob of folds marks motion that cannot be right; the failed flow around it (pixels
     whose flow failed its check, ``unreliable``, within ``reach`` px) belongs to the same
-    object, so it goes too. There the field becomes the camera's displacement: the
-    object is shown as the sensor saw it, not torn. The weight falls off smoothly (a
-    Gaussian of ``feather`` px) so that the seam does not tear either.
+    object, so it goes too. There the field becomes the motion of the region's
+    surroundings (a normalised Gaussian average, ``reach`` px, of the field outside it;
+    the camera's where nothing is near): a spinner on a still floor is shown as the
+    sensor saw it, a patch of a fast pan moves with the pan, neither torn. The weight
+    falls off smoothly (a Gaussian of ``feather`` px) so that the seam does not tear.
 
     Parameters
     ----------
@@ -105,7 +107,7 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     -------
     field : ndarray of shape (h, w, 2)
     kept : float
-        Share of pixels put (wholly or partly) on the camera's motion.
+        Share of pixels given (wholly or partly) the motion of their surroundings.
     """
     seeds = fold_blobs(field)
     if not seeds.any():
@@ -117,5 +119,14 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, k)  # keep an object in one piece
     weight = cv2.GaussianBlur(cv2.dilate(region, k).astype(np.float32), (0, 0), feather)
     weight = np.maximum(weight, region.astype(np.float32))[..., None]
-    out = field * (1.0 - weight) + camera[:, None, :] * weight
+    # What fills the region: the motion of its surroundings (a normalised Gaussian average
+    # of the field outside it), else the camera's.
+    outside = (weight[..., 0] < 0.01).astype(np.float32)
+    sigma = float(reach)
+    den = cv2.GaussianBlur(outside, (0, 0), sigma)[..., None]
+    num = cv2.GaussianBlur(np.ascontiguousarray(field * outside[..., None], np.float32),
+                           (0, 0), sigma)
+    cam = np.broadcast_to(camera[:, None, :], field.shape)
+    fill = np.where(den > 1e-3, num / np.maximum(den, 1e-3), cam)
+    out = field * (1.0 - weight) + fill * weight
     return out.astype(field.dtype), float((weight > 0.01).mean())
