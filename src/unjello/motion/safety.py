@@ -81,7 +81,8 @@ def fold_share(field: np.ndarray) -> float:
 
 
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
-               reach: int = 24, feather: float = 6.0) -> tuple[np.ndarray, float]:
+               reach: int = 24, feather: float = 6.0, passes: int = 3
+               ) -> tuple[np.ndarray, float]:
     """Give the places where the map folds or tears in blobs the motion around them.
 
     A blob of folds marks motion that cannot be right; the failed flow around it (pixels
@@ -102,13 +103,28 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         Pixels whose flow failed its consistency check.
     reach, feather : float
         Distance (px) over which failed flow joins a blob's region, and the blend's width.
+    passes : int
+        A blend can leave new folds at its seam; the pass repeats while blobs remain, at
+        most this many times.
 
     Returns
     -------
     field : ndarray of shape (h, w, 2)
     kept : float
-        Share of pixels given (wholly or partly) the motion of their surroundings.
+        Share of pixels whose motion changed (by more than 0.01 px).
     """
+    out = field
+    for _ in range(passes):
+        out, share = _keep_once(out, camera, unreliable, reach, feather)
+        if not share or not fold_blobs(out).any():
+            break
+    changed = np.abs(out - field).max(axis=-1) > 0.01
+    return out, float(changed.mean())
+
+
+def _keep_once(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray,
+               reach: int, feather: float) -> tuple[np.ndarray, float]:
+    """One pass of :func:`keep_whole`."""
     seeds = fold_blobs(field)
     if not seeds.any():
         return field, 0.0
