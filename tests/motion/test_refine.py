@@ -2,6 +2,7 @@ import cv2
 import numpy as np
 
 from unjello.motion.refine import (
+    LocalMatches,
     RefineConfig,
     inside_constraints,
     local_block_match,
@@ -46,3 +47,26 @@ def test_window_edge_is_rejected(scene):
     centers = np.array([[100.0, 80.0]])
     lm = local_block_match(prev, cur, centers, np.array([[0.0, 0.0]]), RefineConfig(radius=4))
     assert not lm.accepted[0]
+
+
+def _matches(rows_of_blocks, accepted):
+    centers = np.array([[8 + 16 * i, 8 + 16 * r] for r, n in rows_of_blocks for i in range(n)],
+                       dtype=float)
+    n = len(centers)
+    return LocalMatches(centers, np.zeros((n, 2)), np.zeros(n), np.asarray(accepted, bool))
+
+
+def test_row_samples_keep_each_block_row_apart():
+    """Centres at 8 + 16 k: rounding to even merged block rows 0 and 1, 2 and 3, ..."""
+    m = _matches([(0, 4), (1, 4), (2, 4), (3, 4)], [True] * 16)
+    v = np.repeat([[1.0, 0], [2, 0], [3, 0], [4, 0]], 4, axis=0)
+    t, vs = row_samples(m, v, m.centers[:, 1] / 100.0, 16, 3)
+    assert t.size == 4 and vs[:, 0].tolist() == [1.0, 2.0, 3.0, 4.0]
+
+
+def test_a_few_false_matches_do_not_make_a_sample():
+    """Of 40 blocks tested in a row, 4 accepted (the right ones rejected at the window's
+    edge) is not a sample; 20 is."""
+    m = _matches([(0, 40), (1, 40)], [True] * 4 + [False] * 36 + [True] * 20 + [False] * 20)
+    t, vs = row_samples(m, np.ones((80, 2)), np.arange(80) / 100.0, 16, 3)
+    assert t.size == 1 and abs(t[0] - np.median(np.arange(40, 60)) / 100.0) < 1e-9

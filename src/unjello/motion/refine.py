@@ -244,7 +244,7 @@ def row_samples(matches: LocalMatches, velocity: np.ndarray, times: np.ndarray, 
     block : int
         Block size; blocks with the same centre row share a sample.
     min_blocks : int
-        Fewest accepted blocks a row needs.
+        Fewest accepted blocks a row needs; and at least half of the blocks tested in it.
 
     Returns
     -------
@@ -254,12 +254,19 @@ def row_samples(matches: LocalMatches, velocity: np.ndarray, times: np.ndarray, 
     acc = matches.accepted
     if not acc.any():
         return np.zeros(0), np.zeros((0, 2))
-    rows = np.rint(matches.centers[acc, 1] / block).astype(np.int64)
+    # One block row each (centres at b/2 + k b: rounding them to even would merge rows
+    # imaged at different times).
+    all_rows = np.floor(matches.centers[:, 1] / block).astype(np.int64)
+    rows = all_rows[acc]
     v, t = velocity[acc], times[acc]
     out_t, out_v = [], []
     for row in np.unique(rows):
         sel = rows == row
-        if sel.sum() >= min_blocks:
+        tested = int((all_rows == row).sum())
+        # A few false matches must not make a sample: at least half of the row's tested
+        # blocks must agree (a wrong prediction puts the right matches at the window's
+        # edge, where they are rejected; the false ones that remain are few).
+        if sel.sum() >= max(min_blocks, 0.5 * tested):
             out_t.append(float(np.median(t[sel])))
             out_v.append(np.median(v[sel], axis=0))
     if not out_t:
