@@ -67,3 +67,25 @@ def test_each_stage_is_a_module_that_cites_the_paper(module, section, equations)
     numbers = {n for a, b in cited for n in (
         map(str, range(int(a), int(b) + 1)) if b else [a])}
     assert set(equations) <= numbers, (module, numbers)
+
+
+def test_diverged_local_samples_fall_back_to_the_global_motion(scene):
+    """Local samples no search could have measured (900 px a frame) never reach the
+    output: that frame takes the global motion alone, and says so."""
+    timing = SensorTiming(0.7)
+    sim = list(simulate(scene, Motion("pan", speed=6.0), timing, 6, size=(160, 120)))
+    method = PaperMethod(timing)
+    refine = method._refine
+
+    def runaway(k, prev, cur):
+        refine(k, prev, cur)
+        method._pairs[k].local_t = np.array([k - 0.6, k - 0.4])
+        method._pairs[k].local_v = np.array([[900.0, 0.0], [-900.0, 0.0]])
+
+    method._refine = runaway
+    motions = [fm for k, g in enumerate(_grey(sim)) for fm in method.push(g, float(k))]
+    motions += method.flush()
+    assert all(np.abs(m.velocity).max() <= 160 for m in motions)
+    assert "local samples diverged" in motions[2].note
+    err = np.mean([displacement_error(m, s.motion) for m, s in zip(motions, sim, strict=True)])
+    assert err < 0.1 * np.mean([displacement_error(None, s.motion) for s in sim])

@@ -108,10 +108,11 @@ class PaperMethod:
         self._last_g = (0.0, 0.0)
 
     # -- sample bookkeeping ------------------------------------------------------------
-    def _samples(self, exclude_local: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def _samples(self, exclude_local: int | None = None, local: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray]:
         ts, vs = [], []
         for k, pair in self._pairs.items():
-            if pair.local_t.size >= 2 and k != exclude_local:
+            if local and pair.local_t.size >= 2 and k != exclude_local:
                 ts.append(pair.local_t)
                 vs.append(pair.local_v)
             elif pair.g_ok:
@@ -176,9 +177,17 @@ class PaperMethod:
     def _emit(self, n: int, start: float, height: int) -> FrameMotion:
         times = self.timing.row_times(height, start)
         vel = self._velocity(times)
-        disp = scanline_displacement(vel, self.timing)
         ok = any(p.g_ok for k, p in self._pairs.items() if k in (n, n + 1))
         note = "" if ok else "no global motion found near this frame; velocity bridged"
+        # No velocity beyond what the global search could have measured: the local
+        # samples diverged; the global motion alone (Sec. V.B) is used for this frame.
+        limit = float(self.config.global_motion.search)
+        if not np.isfinite(vel).all() or np.abs(vel).max() > limit:
+            t, v = self._samples(local=False)
+            vel = scanline_velocity(t, v, times)
+            note = "; ".join(x for x in (note, "local samples diverged: the global motion "
+                                         "alone used") if x)
+        disp = scanline_displacement(vel, self.timing)
         return FrameMotion(n, start, disp, vel, ok=ok, note=note)
 
     # -- streaming API -----------------------------------------------------------------
