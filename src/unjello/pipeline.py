@@ -293,10 +293,8 @@ def correct_video(
             on_timing(resolved)
         gyro_log = None
         if config.method == "gyro" and given is None:
-            path = config.gyro.path or str(find_gyro_log(src_p))
+            path = config.gyro.path or find_gyro_log(src_p)
             gyro_log = read_gyro(path, config.gyro.layout, config.gyro.units)
-            config = dataclasses.replace(config, gyro=dataclasses.replace(config.gyro,
-                                                                          path=path))
         corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
                               motion=given, fps=resolved.fps, gyro_log=gyro_log)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),

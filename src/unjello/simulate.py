@@ -99,9 +99,9 @@ class Motion:
         if self.kind == "whip":
             ramp = 1.5
             tt = t - self.start_at
-            x = np.where(tt < 0, 0.0, np.where(tt < ramp, self.speed * tt ** 2 / (2 * ramp),
-                                               self.speed * (tt - ramp / 2)))
-            return np.stack([x, z], axis=-1)
+            pan = np.where(tt < 0, 0.0, np.where(tt < ramp, self.speed * tt ** 2 / (2 * ramp),
+                                                 self.speed * (tt - ramp / 2)))
+            return np.stack([pan, z], axis=-1)
         if self.kind == "shake":
             sec = t / self.fps
             # (Hz, amplitude x px, amplitude y px, phase)

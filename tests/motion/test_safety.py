@@ -63,7 +63,8 @@ def test_keep_whole_puts_a_torn_patch_back_on_the_camera():
     field += camera[:, None]
     unreliable = np.zeros((h, w), bool)
     unreliable[18:34, 28:46] = True
-    whole, kept = keep_whole(field, camera, unreliable)
+    whole, kept, left = keep_whole(field, camera, unreliable)
+    assert left == fold_share(whole)
     assert fold_share(whole) == 0.0 and 0.003 < kept < 0.3
     assert np.allclose(whole[26, 36], camera[26])  # inside: the camera's motion
     assert np.allclose(whole[5, 5], field[5, 5])  # far away: untouched

@@ -553,8 +553,7 @@ class DenseMethod:
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
         folds, kept = fold_share(field), 0.0
         if folds > FOLD_WARNING:
-            whole, share = keep_whole(field, cam_disp, fallback)
-            after = fold_share(whole)
+            whole, share, after = keep_whole(field, cam_disp, fallback)
             if after < folds:  # never worse by its own measure
                 field, folds, kept = whole, after, share
                 note = "; ".join(n for n in (note, f"{100 * kept:.0f}% given the motion around "

@@ -82,7 +82,7 @@ def fold_share(field: np.ndarray) -> float:
 
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                reach: int = 24, feather: float = 6.0, passes: int = 3
-               ) -> tuple[np.ndarray, float]:
+               ) -> tuple[np.ndarray, float, float]:
     """Give the places where the map folds or tears in blobs the motion around them.
 
     A blob of folds marks motion that cannot be right; the failed flow around it (pixels
@@ -112,22 +112,22 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     field : ndarray of shape (h, w, 2)
     kept : float
         Share of pixels whose motion changed (by more than 0.01 px).
+    folds : float
+        :func:`fold_share` of the returned field.
     """
-    out = field
+    out, seeds = field, fold_blobs(field)
     for _ in range(passes):
-        out, share = _keep_once(out, camera, unreliable, reach, feather)
-        if not share or not fold_blobs(out).any():
+        if not seeds.any():
             break
+        out = _keep_once(out, seeds, camera, unreliable, reach, feather)
+        seeds = fold_blobs(out)
     changed = np.abs(out - field).max(axis=-1) > 0.01
-    return out, float(changed.mean())
+    return out, float(changed.mean()), float(seeds.mean())
 
 
-def _keep_once(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray,
-               reach: int, feather: float) -> tuple[np.ndarray, float]:
-    """One pass of :func:`keep_whole`."""
-    seeds = fold_blobs(field)
-    if not seeds.any():
-        return field, 0.0
+def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
+               unreliable: np.ndarray, reach: int, feather: float) -> np.ndarray:
+    """One pass of :func:`keep_whole` around the blobs ``seeds``."""
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     near = cv2.dilate(seeds.astype(np.uint8), disc).astype(bool)
     region = (seeds | (near & unreliable)).astype(np.uint8)
@@ -145,4 +145,4 @@ def _keep_once(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray,
     cam = np.broadcast_to(camera[:, None, :], field.shape)
     fill = np.where(den > 1e-3, num / np.maximum(den, 1e-3), cam)
     out = field * (1.0 - weight) + fill * weight
-    return out.astype(field.dtype), float((weight > 0.01).mean())
+    return out.astype(field.dtype)
