@@ -231,19 +231,34 @@ def test_a_whip_pan_over_texture_is_corrected_not_aliased(texture):
     assert min(gain) > 6
 
 
-def test_a_spinning_propeller_is_not_made_worse_and_its_background_is_corrected(scene):
-    """Blades at 6 rev/s defeat the flow; they must not come out worse than filmed.
-    Measured here: blades 1.016x (uncorrected 5.39 px), background 0.034x; at 320x240
-    (benchmarks/synthetic.py) 0.988x and 0.032x."""
+def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(scene):
+    """Blades at 6 rev/s defeat the flow (left as filmed: 1.016x); a rotation fitted per
+    scanline turns them back where a frame has both neighbours. Measured here: blades
+    0.11x on the inner frames (uncorrected 5.37 px), the two end frames left as filmed
+    (1.00x); background 0.08x (the blades' 1 px seams); at 320x240
+    (benchmarks/synthetic.py) blades 0.15x over all frames, background 0.10x."""
+    from skimage import data
+
     timing = SensorTiming(1.0)
     sim = list(simulate(scene, Motion("pan", speed=5.0), timing, 8, size=SIZE,
-                        layers="propeller"))
+                        layers="propeller", layer_image=data.coffee()))
     out, traj = correct_frames([s.rolling for s in sim], timing)
-    for region, bound in ((lambda s: s.layer == 1, 1.05), (lambda s: s.layer == 0, 0.1)):
+
+    def ratio(frames, sims, region):
         err = np.mean([displacement_error(f, s.motion, region(s))
-                       for f, s in zip(traj.frames, sim, strict=True)])
-        unc = np.mean([displacement_error(None, s.motion, region(s)) for s in sim])
-        assert err < bound * unc
+                       for f, s in zip(frames, sims, strict=True)])
+        return err / np.mean([displacement_error(None, s.motion, region(s)) for s in sims])
+
+    def blades(s):
+        return s.layer == 1
+
+    assert ratio(traj.frames[1:-1], sim[1:-1], blades) < 0.2
+    for end in (0, -1):
+        assert ratio([traj.frames[end]], [sim[end]], blades) < 1.05
+    assert ratio(traj.frames, sim, lambda s: s.layer == 0) < 0.15
+    inner = traj.frames[1:-1]
+    assert all(f.spun > 0.02 and "spinning object" in f.note for f in inner)
+    assert all(f.confidence > 0.9 for f in inner)
 
 
 def _from_rest(vx, vy, start=2.0, ramp=1.0):

@@ -225,6 +225,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "kept_frames": [f.index for f in kept],
             "folded_frames": [f.index for f in folded],
             "folds": [round(f.folds, 4) for f in traj.frames],
+            "spun_frames": [f.index for f in traj.frames if f.spun > 0],
+            "confidence": [round(f.confidence, 3) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
             "messages": messages}))
     elif not quiet:

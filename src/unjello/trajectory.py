@@ -16,7 +16,9 @@ timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
 ``kept`` (share given the motion around it because the per-pixel motion folded or tore
-the picture), ``folds`` (share where the applied map still folds or tears in blobs),
+the picture), ``spun`` (of those, the share given a rotation fitted to a spinning
+object), ``folds`` (share where the applied map still folds or tears in blobs),
+``confidence`` (:attr:`FrameMotion.confidence`, written for readers; recomputed on load),
 ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
@@ -74,6 +76,9 @@ class FrameMotion:
         Dense methods: fraction of pixels in blobs where the applied correction map folds
         or tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
         not followed, such as a fast-spinning object.
+    spun : float
+        Dense methods: the part of ``kept`` given a rigid rotation fitted to a spinning
+        object (:func:`unjello.motion.spin.keep_spinning`) rather than the motion around it.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -95,8 +100,26 @@ class FrameMotion:
     entering: float = 0.0
     kept: float = 0.0
     folds: float = 0.0
+    spun: float = 0.0
     field: np.ndarray | None = None
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
+
+    @property
+    def confidence(self) -> float:
+        """Share of the picture corrected by motion measured for it, 0-1.
+
+        One minus the pixels whose own motion was not measured -- their flow failed
+        (``fallback`` less ``entering``: content entering the frame is no failure, it
+        moves with the camera) or they were given the motion around them (``kept``; the
+        two mostly overlap, the larger counts) -- less those a rotation fitted to a
+        spinning object explains (``spun``), and minus those where the correction still
+        folds or tears (``folds``). A frame bridged over a failure (``ok`` false) has 0.
+        """
+        if not self.ok:
+            return 0.0
+        unmeasured = max(self.fallback - self.entering, self.kept) - self.spun
+        doubt = max(unmeasured, 0.0) + self.folds
+        return float(np.clip(1.0 - doubt, 0.0, 1.0))
 
     def pixel_displacement(self, width: int) -> np.ndarray:
         """Return the per-pixel displacement at full resolution, shape ``(h, width, 2)``."""
@@ -124,6 +147,8 @@ class FrameMotion:
             "entering": round(float(self.entering), 4),
             "kept": round(float(self.kept), 4),
             "folds": round(float(self.folds), 4),
+            "spun": round(float(self.spun), 4),
+            "confidence": round(self.confidence, 4),
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
         }
@@ -159,6 +184,7 @@ class FrameMotion:
             entering=float(d.get("entering", 0.0)),
             kept=float(d.get("kept", 0.0)),
             folds=float(d.get("folds", 0.0)),
+            spun=float(d.get("spun", 0.0)),
             field=field,
         )
 

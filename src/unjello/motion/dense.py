@@ -57,7 +57,8 @@ from .flow import (
     patch_cost,
     row_flows,
 )
-from .safety import fold_share, keep_whole
+from .safety import failed_blobs, fold_blobs, fold_share, keep_whole
+from .spin import keep_spinning
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
 __all__ = ["DenseConfig", "DenseMethod", "snap_to_global", "FOLD_WARNING"]
@@ -372,6 +373,8 @@ class DenseMethod:
         self._count = 0
         self._next_out = 0
         self._full: tuple[int, int] = (0, 0)
+        # The last frame's spinning objects: (centre at its reference time, omega, that time)
+        self._spins: list[tuple[np.ndarray, float, float]] = []
 
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at time ``start``."""
@@ -551,17 +554,53 @@ class DenseMethod:
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        folds, kept = fold_share(field), 0.0
+        folds, kept, spun = fold_share(field), 0.0, 0.0
+        regions = np.zeros((h, w), bool)
         if folds > FOLD_WARNING:
-            whole, share, after = keep_whole(field, cam_disp, fallback)
+            whole, share, after, regions = keep_whole(field, cam_disp, fallback)
             if after < folds:  # never worse by its own measure
                 field, folds, kept = whole, after, share
                 note = "; ".join(n for n in (note, f"{100 * kept:.0f}% given the motion around "
                                              "it (the per-pixel motion folded or tore)")
                                  if n)
-            if folds > FOLD_WARNING:
-                note = "; ".join(n for n in (note, f"the correction folds or tears "
-                                             f"{100 * folds:.1f}% of the picture") if n)
+        regions |= failed_blobs(fallback & ~entering)
+        others = [(f.image, f.start - fr.start) for f in self._frames
+                  if abs(f.index - fr.index) == 1]
+        if regions.any() and len(others) == 2:  # one side tells aliases apart too poorly
+            # What carries an object: the camera's path plus the solve's mean row velocity.
+            u_mean = u_rows.mean(axis=0)
+
+            def track(t: np.ndarray) -> np.ndarray:
+                return c_at(t) + np.asarray(t)[..., None] * u_mean
+
+            # Last frame's rotations, carried to this frame's reference time.
+            hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
+                     for c, om, t in self._spins]
+            spinning, spins, weight, fitted = keep_spinning(
+                field, fr.image, others, regions, track, float(t_ref), self.timing.readout,
+                hints=hints)
+            self._spins = [(s.centre, s.omega, fr.start + float(t_ref)) for s in fitted]
+            if spins:
+                # A rotating object's edges are occlusion boundaries: the map folds along
+                # them by right, so they do not count.
+                spun_px = (weight > 0.5).astype(np.uint8)
+                k = np.ones((7, 7), np.uint8)
+                edges = (cv2.dilate(spun_px, k) > cv2.erode(spun_px, k))
+                after = float((fold_blobs(spinning) & ~edges).mean())
+                if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
+                    spins = []
+            if spins:
+                field, spun, folds = spinning, float(spun_px.mean()), after
+                turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
+                note = "; ".join(n for n in (note, (
+                    f"{len(spins)} spinning object(s) turned back by a rotation fitted per "
+                    f"scanline ({turns} turns per frame, {100 * spun:.0f}% of the picture)"))
+                    if n)
+        else:
+            self._spins = []
+        if folds > FOLD_WARNING:
+            note = "; ".join(n for n in (note, f"the correction folds or tears "
+                                         f"{100 * folds:.1f}% of the picture") if n)
         note = "; ".join(n for n in (self._note, note) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
@@ -570,8 +609,7 @@ class DenseMethod:
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
-                           field=field,
-                           neighbours=neighbours)
+                           spun=spun, field=field, neighbours=neighbours)
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]

@@ -21,7 +21,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "keep_whole"]
+__all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
+           "keep_whole"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
@@ -80,9 +81,46 @@ def fold_share(field: np.ndarray) -> float:
     return float(fold_blobs(field).mean())
 
 
+def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: float = 0.2,
+                 most: int = 3) -> np.ndarray:
+    """Objects where the flow failed its check on many pixels (bool, shape (h, w)).
+
+    A fast-spinning object often does not fold the map: the flow settles on a plausible
+    wrong motion (an alias of its symmetry) or on its surroundings', and fails the
+    consistency check in patches all over the object. Patches closer than a tenth of
+    the width are joined, and each cluster -- at least ``min_share`` of the frame, with at
+    least ``density`` of its pixels failed -- stands for the object as its convex hull, a
+    candidate for :func:`unjello.motion.spin.keep_spinning`; the ``most`` largest are
+    returned.
+
+    Examples
+    --------
+    >>> bad = np.zeros((100, 100), bool); bad[20:50:2, 20:50] = True  # half failed
+    >>> int(failed_blobs(bad).sum()) > 800, bool(failed_blobs(np.zeros((9, 9), bool)).any())
+    (True, False)
+    """
+    h, w = unreliable.shape
+    bad = unreliable.astype(np.uint8)
+    size = max(9, w // 10) | 1
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    closed = cv2.morphologyEx(cv2.morphologyEx(bad, cv2.MORPH_CLOSE, k), cv2.MORPH_OPEN,
+                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9)))
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(closed)
+    out = np.zeros((h, w), np.uint8)
+    big = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= min_share * h * w]
+    big.sort(key=lambda i: -stats[i, cv2.CC_STAT_AREA])
+    for i in big[:most]:
+        blob = labels == i
+        if unreliable[blob].mean() >= density:
+            ys, xs = np.nonzero(blob)
+            hull = cv2.convexHull(np.stack([xs, ys], axis=1).astype(np.int32))
+            cv2.fillConvexPoly(out, hull, 1)
+    return out.astype(bool)
+
+
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                reach: int = 24, feather: float = 6.0, passes: int = 3
-               ) -> tuple[np.ndarray, float, float]:
+               ) -> tuple[np.ndarray, float, float, np.ndarray]:
     """Give the places where the map folds or tears in blobs the motion around them.
 
     A blob of folds marks motion that cannot be right; the failed flow around it (pixels
@@ -114,20 +152,26 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         Share of pixels whose motion changed (by more than 0.01 px).
     folds : float
         :func:`fold_share` of the returned field.
+    regions : ndarray of bool, shape (h, w)
+        The places given their surroundings' motion (every pass's), each an object whose
+        motion failed: :func:`unjello.motion.spin.keep_spinning` may fit them a rotation.
     """
     out, seeds = field, fold_blobs(field)
+    regions = np.zeros(field.shape[:2], bool)
     for _ in range(passes):
         if not seeds.any():
             break
-        out = _keep_once(out, seeds, camera, unreliable, reach, feather)
+        out, region = _keep_once(out, seeds, camera, unreliable, reach, feather)
+        regions |= region
         seeds = fold_blobs(out)
     changed = np.abs(out - field).max(axis=-1) > 0.01
-    return out, float(changed.mean()), float(seeds.mean())
+    return out, float(changed.mean()), float(seeds.mean()), regions
 
 
 def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
-               unreliable: np.ndarray, reach: int, feather: float) -> np.ndarray:
-    """One pass of :func:`keep_whole` around the blobs ``seeds``."""
+               unreliable: np.ndarray, reach: int, feather: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """One pass of :func:`keep_whole` around the blobs ``seeds``: the field, the region."""
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     near = cv2.dilate(seeds.astype(np.uint8), disc).astype(bool)
     region = (seeds | (near & unreliable)).astype(np.uint8)
@@ -145,4 +189,4 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
     cam = np.broadcast_to(camera[:, None, :], field.shape)
     fill = np.where(den > 1e-3, num / np.maximum(den, 1e-3), cam)
     out = field * (1.0 - weight) + fill * weight
-    return out.astype(field.dtype)
+    return out.astype(field.dtype), region.astype(bool)

@@ -1,0 +1,434 @@
+"""Do no harm, step two: keep a spinning object whole by fitting it a rigid rotation.
+
+A propeller, a wheel or a fidget spinner turns so fast that optical flow between frames
+fails on it (its blades move tens of pixels and look alike: the flow aliases), and the
+per-pixel map folds there (:mod:`unjello.motion.safety`). But a rolling shutter images
+such an object one scanline at a time while it turns, and the distortion that results --
+blades bent into arcs, thinned on one side and fattened on the other -- is that of a
+rigid rotation sampled per scanline, exactly as the camera's motion is (the paper's
+eq. 10 timing): a point at ``s``, imaged at ``t_s = t_k + rho s_y / h``, was at
+
+``p = C(t_ref) + R(omega (t_ref - t_s)) (s - C(t_s))``
+
+at the reference time, where ``C(t)`` is the rotation's centre, carried by the motion
+around it, and ``omega`` the angular velocity (radians per frame interval).
+
+:func:`fit_spin` finds ``omega`` and the centre from the frame and its neighbours: each
+candidate predicts where every pixel of the region appears in a neighbouring frame
+(solved per pixel for the scanline that images it), and the candidate whose predictions
+match the neighbours best (a truncated absolute difference) wins. Between frames the
+object turns by ``omega`` times the interval, which a symmetric object (three blades)
+cannot tell from ``omega`` plus a multiple of its symmetry; within the frame it turns by
+``omega`` times the readout across its height, which tells them apart -- so the search
+covers many turns per frame, as real propellers make. :func:`spin_field` is the
+correction of the fitted rotation, :func:`spin_support` the pixels it explains better
+than the motion around them (a propeller's region also shows the background between its
+blades).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = ["Spin", "fit_spin", "spin_field", "spin_support", "spin_regions", "keep_spinning",
+           "MAX_SPIN"]
+
+#: The search covers rotations up to this many radians per frame interval either way
+#: (two turns: 60 rev/s at 30 fps).
+MAX_SPIN = 4 * np.pi
+#: Grey-level difference at which the match cost saturates (an occluded or
+#: mis-modelled pixel costs no more than this).
+TRUNCATE = 40.0
+#: A pixel the surroundings' motion leaves at least this far from its neighbours (grey
+#: levels) belongs to the object; only such pixels score a rotation.
+MOVING = 10.0
+
+Track = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Spin:
+    """A rigid rotation fitted to a region of one frame.
+
+    Attributes
+    ----------
+    centre : ndarray of shape (2,)
+        Centre ``C(t_ref)`` (x, y) in the frame's pixels at its reference time.
+    omega : float
+        Angular velocity, radians per frame interval (positive: clockwise on screen,
+        from +x towards +y).
+    cost : float
+        Mean truncated absolute difference of the region's pixels and where the rotation
+        puts them in the neighbouring frames (grey levels).
+    still_cost : float
+        The same with no rotation: the region moving with its surroundings. Both are
+        measured on the pixels that the surroundings' motion does not explain.
+    """
+
+    centre: np.ndarray
+    omega: float
+    cost: float
+    still_cost: float
+
+    @property
+    def gain(self) -> float:
+        """How much better the rotation explains the region than no rotation (ratio)."""
+        return self.still_cost / max(self.cost, 1e-6)
+
+
+def _rotate(v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def _at(track: Track, t: np.ndarray) -> np.ndarray:
+    """``track`` at times of any shape: shape ``t.shape + (2,)``."""
+    t = np.asarray(t, np.float64)
+    return np.asarray(track(t.ravel()), np.float64).reshape(t.shape + (2,))
+
+
+def _predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndarray,
+             track: Track, t_ref: float, offset: float, row_time: float,
+             iterations: int = 5) -> np.ndarray:
+    """Where points ``pts`` (n, 2), imaged at ``t_s``, appear in a frame starting at ``offset``.
+
+    For every rotation of ``omega`` (m,) about ``centre`` (m, 2) at once: shape (m, n, 2).
+    The point's scanline in that frame fixes the time it is imaged there, which fixes
+    where it is: solved by iterating ``t' = offset + row_time * y'`` (converges while the
+    object's rim moves less than a row per row of readout).
+    """
+    z = pts[:, 0] + 1j * pts[:, 1]
+    cz = centre[:, 0] + 1j * centre[:, 1]
+    c_ref = _at(track, np.array(t_ref)) @ (1, 1j)
+    rel = z[None] - (cz[:, None] + _at(track, t_s)[None] @ (1, 1j) - c_ref)
+    t_o = np.broadcast_to(offset + row_time * pts[None, :, 1], rel.shape)
+    for _ in range(iterations):
+        q = cz[:, None] + _at(track, t_o) @ (1, 1j) - c_ref + rel * np.exp(
+            1j * omega[:, None] * (t_o - t_s[None]))
+        t_o = offset + row_time * q.imag
+    return np.stack([q.real, q.imag], axis=-1)
+
+
+def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Sample ``image`` bilinearly at points of any shape.
+
+    The maps are folded into rows of 1024, under OpenCV's 32767-column limit.
+    """
+    n = x.size
+    cols = 1024
+    pad = -n % cols
+    mx = np.concatenate([x.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
+    my = np.concatenate([y.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.ravel()[:n].reshape(x.shape)
+
+
+def _costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np.ndarray,
+           centre: np.ndarray, omega: np.ndarray, track: Track, t_ref: float,
+           row_time: float, iterations: int = 5) -> np.ndarray:
+    """Return each point's truncated difference with its predictions, shape (m, n).
+
+    Averaged over the neighbours in which the point is predicted inside the frame.
+    """
+    h, w = image.shape
+    t_s = row_time * pts[:, 1]
+    own = _sample(image, pts[:, 0], pts[:, 1])
+    total = np.zeros((len(omega), len(pts)))
+    seen = np.zeros_like(total)
+    for other, offset in others:
+        q = _predict(pts, t_s, centre, omega, track, t_ref, offset, row_time, iterations)
+        val = _sample(other, q[..., 0], q[..., 1])
+        inside = ((q[..., 0] >= 0) & (q[..., 0] <= w - 1) & (q[..., 1] >= 0)
+                  & (q[..., 1] <= h - 1))
+        total += np.where(inside, np.minimum(np.abs(val - own[None]), TRUNCATE), 0.0)
+        seen += inside
+    return np.where(seen > 0, total / np.maximum(seen, 1), TRUNCATE)
+
+
+def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+             region: np.ndarray, track: Track, t_ref: float, readout: float, *,
+             max_spin: float = MAX_SPIN, coarse_radius: float = 16.0,
+             hints: Sequence[tuple[np.ndarray, float]] = (), search: bool = True
+             ) -> Spin | None:
+    """Fit a rotation per scanline to ``region`` of ``image``.
+
+    Every rotation up to ``max_spin`` about every centre near the region's centroid is
+    scored on a copy shrunk until the region's radius is about ``coarse_radius`` px
+    (where a grid of a few hundred rotations and 25 centres is affordable and blur widens
+    each candidate's basin); the best few are refined at full size by a shrinking
+    pattern search over centre and rotation.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w), float32
+        The frame (grey).
+    others : sequence of (ndarray, float)
+        Neighbouring frames and their start times relative to this frame's start.
+    region : ndarray of bool, shape (h, w)
+        The object's pixels (a blob where the per-pixel motion failed).
+    track : callable
+        ``C``'s motion: the displacement of the region's surroundings at times relative
+        to the frame's start, ``(n,) -> (n, 2)``.
+    t_ref : float
+        The frame's reference time relative to its start.
+    readout : float
+        Readout time in frame intervals.
+    max_spin : float
+        Largest rotation searched, radians per frame interval.
+    coarse_radius : float
+        The region's radius (px) in the shrunk copy.
+    hints : sequence of (ndarray, float)
+        Rotations (centre at ``t_ref``, ``omega``) to refine besides the search's best:
+        the previous frame's, carried along (a spinning object keeps spinning).
+    search : bool
+        False: refine the ``hints`` only, without the coarse search.
+
+    Returns
+    -------
+    Spin or None
+        None when the region is too small to fit (a radius under 8 px) or there is no
+        neighbour.
+    """
+    h, w = image.shape
+    ys, xs = np.nonzero(region)
+    if len(xs) < 200 or not others:
+        return None
+    pts = np.stack([xs, ys], axis=1).astype(np.float64)
+    centroid = pts.mean(axis=0)
+    radius = float(np.percentile(np.linalg.norm(pts - centroid, axis=1), 95))
+    if radius < 8:
+        return None
+    c_ref = _at(track, np.array(t_ref))
+    # The centroid is where the object was at its mean scanline's time; at t_ref:
+    centroid = centroid - _at(track, np.array(readout / h * centroid[1])) + c_ref
+
+    def moving(img: np.ndarray, oth: list, p: np.ndarray, trk: Track, rt: float
+               ) -> np.ndarray:
+        """Return the points the surroundings' motion does not explain.
+
+        The object, not the background seen through it: only they score rotations.
+        """
+        still = _costs(img, oth, p, c_ref[None] * 0, np.zeros(1), trk, t_ref, rt)[0]
+        return p[still >= MOVING]
+
+    # Coarse: all rotations about 9 centres, on a shrunk copy.
+    f = max(1.0, radius / coarse_radius)
+    size = (max(8, round(w / f)), max(8, round(h / f)))
+    small = [cv2.resize(im, size, interpolation=cv2.INTER_AREA) for im in (image, *[
+        o for o, _ in others])]
+    sreg = cv2.resize(region.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
+    sy, sx = np.nonzero(sreg)
+    scale = np.array([size[0] / w, size[1] / h])
+    strack: Track = lambda t: np.asarray(track(t)) * scale  # noqa: E731
+    sothers = [(o, off) for o, (_, off) in zip(small[1:], others, strict=True)]
+    spts = moving(small[0], sothers, np.stack([sx, sy], axis=1).astype(np.float64),
+                  strack, readout / size[1])
+    fine = moving(image, list(others), pts[::max(1, len(pts) // 6000)], track, readout / h)
+    if len(spts) < 30 or len(fine) < 100:
+        return None  # nothing moves against the surroundings
+    spts = spts[::max(1, len(spts) // 300)]
+    fine = fine[::max(1, len(fine) // 1500)]
+    s_radius = radius * scale[0]
+    grid = np.arange(-max_spin, max_spin + 1e-9, 1.5 / s_radius)
+    grid = grid[np.abs(grid) * s_radius >= 1.0]  # a turn the rim shows
+    found = []
+    for dy in (-2, 0, 2) if search else ():
+        for dx in (-2, 0, 2):
+            c = centroid * scale + (dx, dy)
+            scores = _costs(small[0], sothers, spts, np.repeat(c[None], len(grid), 0), grid,
+                            strack, t_ref, readout / size[1], iterations=3).mean(axis=1)
+            for i in np.argsort(scores)[:2]:
+                found.append((float(scores[i]), c / scale, float(grid[i])))
+    found.sort(key=lambda x: x[0])
+
+    # Fine: a pattern search from the best few, the centre kept near the region's.
+    def cost(c: np.ndarray, om: float) -> float:
+        return float(_costs(image, others, fine, c[None], np.array([om]), track, t_ref,
+                            readout / h).mean())
+
+    d_omega = 1.0 / radius  # a turn that moves the rim by 1 px in a frame interval
+    results = []
+    starts = [(c, om) for _, c, om in found[:2]] + [
+        (np.asarray(c, np.float64), om) for c, om in hints
+        if np.linalg.norm(np.asarray(c) - centroid) <= radius / 3]
+    if not starts:
+        return None
+    for centre, omega in starts:
+        best = cost(centre, omega)
+        for reach in (2.0, 1.0, 0.5, 0.25):
+            moved = True
+            while moved:
+                moved = False
+                for dc, dw in (((reach, 0), 0), ((-reach, 0), 0), ((0, reach), 0),
+                               ((0, -reach), 0), ((0, 0), reach), ((0, 0), -reach)):
+                    c, om = centre + dc, omega + dw * d_omega
+                    if np.linalg.norm(c - centroid) > radius / 3:
+                        continue
+                    v = cost(c, om)
+                    if v < best:
+                        best, centre, omega, moved = v, c, om, True
+        results.append((best, centre, omega))
+    best, centre, omega = min(results, key=lambda r: r[0])
+    return Spin(centre=centre, omega=omega, cost=best, still_cost=cost(centre, 0.0))
+
+
+def spin_field(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
+               readout: float) -> np.ndarray:
+    """Return the correction ``D(s) = s - p`` of a rotation at every pixel of the frame.
+
+    ``p = C(t_ref) + R(omega (t_ref - t_s)) (s - C(t_s))`` with ``C(t) = centre +
+    track(t) - track(t_ref)``: the camera's part is ``track(t_s) - track(t_ref)``, the
+    paper's eq. 26, and the rotation's part turns each scanline back by what the object
+    turned since the reference time.
+    """
+    h, w = shape
+    row_time = readout / h
+    t_rows = row_time * np.arange(h)
+    c_ref = track(np.array([t_ref]))[0]
+    moved = track(t_rows) - c_ref  # (h, 2)
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    s = np.stack([xs, ys], axis=-1)
+    rel = s - (spin.centre + moved[:, None, :])
+    p = spin.centre + _rotate(rel, spin.omega * (t_ref - t_rows)[:, None])
+    return (s - p).astype(np.float32)
+
+
+def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+                 region: np.ndarray, spin: Spin, track: Track, t_ref: float,
+                 readout: float, window: int = 3) -> np.ndarray:
+    """Weight (0-1) of the rotation at each pixel of ``region``; 0 elsewhere.
+
+    A pixel takes the rotation where it matches the neighbours better than the motion of
+    the surroundings over a ``window`` square (the blades, not the background seen
+    between them), and so do the gaps and holes inside what does; the weight is smoothed
+    over a pixel so that the seam does not tear.
+    """
+    h, w = image.shape
+    ys, xs = np.nonzero(region)
+    pts = np.stack([xs, ys], axis=1).astype(np.float64)
+    both = _costs(image, others, pts, np.repeat(spin.centre[None], 2, 0),
+                  np.array([spin.omega, 0.0]), track, t_ref, readout / h)
+    rot = np.zeros((h, w), np.float32)
+    still = np.zeros((h, w), np.float32)
+    rot[ys, xs], still[ys, xs] = both
+    box = (window, window)
+    better = ((cv2.boxFilter(rot, -1, box) < cv2.boxFilter(still, -1, box)) & region)
+    # One piece: gaps and holes inside the object (a flat patch matches either way) take
+    # the rotation too, so that the object is not torn between the two motions.
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
+    solid = cv2.morphologyEx(better.astype(np.uint8), cv2.MORPH_CLOSE, k)
+    contours, _ = cv2.findContours(solid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    cv2.drawContours(solid, contours, -1, 1, thickness=cv2.FILLED)
+    better = solid.astype(bool) & region
+    weight = cv2.GaussianBlur(better.astype(np.float32), (0, 0), 1.0)
+    return np.where(region, weight, 0.0).astype(np.float32)
+
+
+def spin_regions(seeds: np.ndarray, image: np.ndarray,
+                 others: Sequence[tuple[np.ndarray, float]], track: Track, t_ref: float,
+                 readout: float, *, largest: float = 0.25) -> np.ndarray:
+    """Whole objects around ``seeds`` (where the flow failed), as labels (0: none).
+
+    Flow fails on a spinning object in patches. The object is what the motion of the
+    surroundings does not explain -- pixels that differ from where that motion puts them
+    in the neighbours by :data:`MOVING` grey levels or more -- joined across small gaps;
+    each such piece that a seed touches stands for one object as its convex hull. Pieces
+    over ``largest`` of the frame (content entering it, a whole moving scene) are not
+    objects.
+    """
+    h, w = image.shape
+    ys, xs = np.mgrid[0:h, 0:w]
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float64)
+    still = _costs(image, others, pts, np.zeros((1, 2)), np.zeros(1), track, t_ref,
+                   readout / h, iterations=3)[0].reshape(h, w).astype(np.float32)
+    moving = cv2.GaussianBlur(still, (0, 0), 2.0) >= MOVING
+    size = max(5, w // 40) | 1
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    joined = cv2.morphologyEx(moving.astype(np.uint8), cv2.MORPH_CLOSE, k)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(joined)
+    out = np.zeros((h, w), np.int32)
+    n = 0
+    for i in range(1, count):
+        if stats[i, cv2.CC_STAT_AREA] > largest * h * w or not seeds[labels == i].any():
+            continue
+        py, px = np.nonzero(labels == i)
+        hull = cv2.convexHull(np.stack([px, py], axis=1).astype(np.int32))
+        n += 1
+        cv2.fillConvexPoly(out, hull, n)
+    return out
+
+
+def keep_spinning(field: np.ndarray, image: np.ndarray,
+                  others: Sequence[tuple[np.ndarray, float]], seeds: np.ndarray,
+                  track: Track, t_ref: float, readout: float, *,
+                  hints: Sequence[tuple[np.ndarray, float]] = (), min_gain: float = 3.0,
+                  steady_gain: float = 1.6, min_area: int = 400
+                  ) -> tuple[np.ndarray, list[Spin], np.ndarray, list[Spin]]:
+    """Give each failed object that a rotation explains that rotation's correction.
+
+    Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px) is
+    fitted a rotation (:func:`fit_spin`, from the ``hints`` first, then by a full search;
+    then again on the pixels its rotation explains, leaving out the background seen
+    through the object). It is used when it matches the neighbours at least ``min_gain``
+    times better than the motion around it -- or ``steady_gain`` times when the previous
+    frame found the same rotation (``hints``: within 15 % and a quarter of the radius)
+    -- and turns its rim by a pixel or more per frame. Its correction
+    (:func:`spin_field`) then replaces ``field`` with the weight of
+    :func:`spin_support`; elsewhere ``field`` (the surroundings' motion, from
+    :func:`unjello.motion.safety.keep_whole`) stays.
+
+    Returns
+    -------
+    field : ndarray of shape (h, w, 2)
+    spins : list of Spin
+        The rotations used.
+    weight : ndarray of shape (h, w), float32
+        The rotations' weight at each pixel (0 where none was used).
+    candidates : list of Spin
+        Every rotation fitted, used or not: the next frame's ``hints``.
+    """
+    labels = spin_regions(seeds, image, others, track, t_ref, readout)
+    out, spins, candidates = field, [], []
+    used = np.zeros(seeds.shape, np.float32)
+    for i in range(1, int(labels.max()) + 1):
+        region = labels == i
+        if region.sum() < min_area:
+            continue
+        radius = float(np.sqrt(region.sum() / np.pi))
+
+        def good(spin: Spin, radius: float = radius) -> bool:
+            steady = any(abs(spin.omega - om) <= 0.15 * abs(om)
+                         and np.linalg.norm(spin.centre - c) <= radius / 4 for c, om in hints)
+            return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
+
+        spin = None
+        for search in (False, True):  # from last frame's rotation, else a full search
+            if not search and not hints:
+                continue
+            spin = fit_spin(image, others, region, track, t_ref, readout, hints=hints,
+                            search=search)
+            if spin is None:
+                continue
+            # The hull holds background too (between a propeller's blades): fitted again
+            # on what the first rotation explains, the object alone.
+            support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
+            if support.sum() >= min_area / 2:
+                spin = fit_spin(image, others, support, track, t_ref, readout,
+                                hints=[(spin.centre, spin.omega)], search=False) or spin
+            if good(spin):
+                break
+        if spin is None:
+            continue
+        candidates.append(spin)
+        if not good(spin) or abs(spin.omega) * radius < 1.0:
+            continue
+        weight = spin_support(image, others, region, spin, track, t_ref, readout)[..., None]
+        out = out * (1 - weight) + spin_field(spin, seeds.shape, track, t_ref,
+                                              readout) * weight
+        used = np.maximum(used, weight[..., 0])
+        spins.append(spin)
+    return out.astype(field.dtype), spins, used, candidates

@@ -1,0 +1,76 @@
+"""Spinning objects: a rotation sampled per scanline, fitted from the frames alone."""
+
+import cv2
+import numpy as np
+import pytest
+from skimage import data
+
+from unjello.motion.safety import failed_blobs
+from unjello.motion.spin import fit_spin, keep_spinning, spin_field
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming
+
+
+@pytest.fixture(scope="module")
+def propeller():
+    motion = Motion("pan", speed=5.0)
+    sim = list(simulate(data.astronaut(), motion, SensorTiming(1.0), 4, size=(320, 240),
+                        layers="propeller", layer_image=data.coffee()))
+    grey = [cv2.cvtColor(s.rolling.astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(np.float32)
+            for s in sim]
+    return motion, sim, grey
+
+
+def test_fit_finds_the_propellers_turn_and_centre(propeller):
+    """6 rev/s at 30 fps is 1.257 rad per frame; three blades alias it with 1.257 - 2.094
+    between frames, which only the turn within the frame tells apart. Measured: omega
+    1.2572, centre within 0.1 px, displacement error 0.11 px (uncorrected 9.1 px)."""
+    motion, sim, g = propeller
+    k = 2
+    region = cv2.dilate((sim[k].layer != 0).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    spin = fit_spin(g[k], [(g[k - 1], -1.0), (g[k + 1], 1.0)], region, track, 0.5, 1.0)
+    assert spin is not None
+    assert spin.omega == pytest.approx(2 * np.pi * 6 / 30, rel=0.01)
+    true_centre = np.array([160.0, 120.0]) + motion(np.array([k + 0.5]))[0]
+    assert np.linalg.norm(spin.centre - true_centre) < 1.0
+    assert spin.gain > 3
+    field = spin_field(spin, g[k].shape, track, 0.5, 1.0)
+    truth = sim[k].motion.pixel_displacement(320)
+    blades = sim[k].layer != 0
+    err = np.linalg.norm(field - truth, axis=-1)[blades].mean()
+    assert err < 0.1 * np.linalg.norm(truth, axis=-1)[blades].mean()
+
+
+def test_nothing_spins_on_a_plain_pan():
+    """A textured scene panning with failed flow in a patch: no rotation beats the pan."""
+    motion = Motion("pan", speed=7.0)
+    sim = list(simulate(data.astronaut(), motion, SensorTiming(1.0), 3, size=(320, 240)))
+    g = [cv2.cvtColor(s.rolling.astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(np.float32)
+         for s in sim]
+    seeds = np.zeros((240, 320), bool)
+    seeds[80:160:2, 100:200] = True
+    assert failed_blobs(seeds).any()
+
+    def track(t):
+        return motion(np.asarray(t, float) + 1)
+
+    field = np.zeros((240, 320, 2), np.float32)
+    out, spins, weight, _ = keep_spinning(field, g[1], [(g[0], -1.0), (g[2], 1.0)],
+                                          failed_blobs(seeds), track, 0.5, 1.0)
+    assert spins == [] and not weight.any() and np.array_equal(out, field)
+
+
+def test_a_still_rotation_is_the_camera_path():
+    from unjello.motion.spin import Spin
+
+    def track(t):
+        return np.stack([2.0 * np.asarray(t), np.zeros_like(t)], axis=-1)
+
+    field = spin_field(Spin(np.array([20.0, 10.0]), 0.0, 1.0, 1.0), (20, 30), track, 0.5, 1.0)
+    rows = 2.0 * (np.arange(20) / 20 - 0.5)  # track(t_s) - track(t_ref)
+    assert np.allclose(field[..., 0], rows[:, None], atol=1e-5)
+    assert np.allclose(field[..., 1], 0.0)
