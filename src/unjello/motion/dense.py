@@ -554,7 +554,7 @@ class DenseMethod:
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        folds, kept, spun = fold_share(field), 0.0, 0.0
+        folds, kept = fold_share(field), 0.0
         regions = np.zeros((h, w), bool)
         if folds > FOLD_WARNING:
             whole, share, after, regions = keep_whole(field, cam_disp, fallback)
@@ -564,40 +564,9 @@ class DenseMethod:
                                              "it (the per-pixel motion folded or tore)")
                                  if n)
         regions |= failed_blobs(fallback & ~entering)
-        others = [(f.image, f.start - fr.start) for f in self._frames
-                  if abs(f.index - fr.index) == 1]
-        if regions.any() and len(others) == 2:  # one side tells aliases apart too poorly
-            # What carries an object: the camera's path plus the solve's mean row velocity.
-            u_mean = u_rows.mean(axis=0)
-
-            def track(t: np.ndarray) -> np.ndarray:
-                return c_at(t) + np.asarray(t)[..., None] * u_mean
-
-            # Last frame's rotations, carried to this frame's reference time.
-            hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
-                     for c, om, t in self._spins]
-            spinning, spins, weight, fitted = keep_spinning(
-                field, fr.image, others, regions, track, float(t_ref), self.timing.readout,
-                hints=hints)
-            self._spins = [(s.centre, s.omega, fr.start + float(t_ref)) for s in fitted]
-            if spins:
-                # A rotating object's edges are occlusion boundaries: the map folds along
-                # them by right, so they do not count.
-                spun_px = (weight > 0.5).astype(np.uint8)
-                k = np.ones((7, 7), np.uint8)
-                edges = (cv2.dilate(spun_px, k) > cv2.erode(spun_px, k))
-                after = float((fold_blobs(spinning) & ~edges).mean())
-                if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
-                    spins = []
-            if spins:
-                field, spun, folds = spinning, float(spun_px.mean()), after
-                turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
-                note = "; ".join(n for n in (note, (
-                    f"{len(spins)} spinning object(s) turned back by a rotation fitted per "
-                    f"scanline ({turns} turns per frame, {100 * spun:.0f}% of the picture)"))
-                    if n)
-        else:
-            self._spins = []
+        field, folds, spun, said = self._turn_back_spinning(
+            fr, field, folds, regions, float(t_ref), c_at, u_rows.mean(axis=0))
+        note = "; ".join(n for n in (note, said) if n)
         if folds > FOLD_WARNING:
             note = "; ".join(n for n in (note, f"the correction folds or tears "
                                          f"{100 * folds:.1f}% of the picture") if n)
@@ -610,6 +579,47 @@ class DenseMethod:
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
                            spun=spun, field=field, neighbours=neighbours)
+
+    def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
+                            regions: np.ndarray, t_ref: float,
+                            c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
+                            ) -> tuple[np.ndarray, float, float, str]:
+        """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
+
+        Only with a neighbour on each side (one side tells a rotation's aliases apart too
+        poorly), and only if the map then folds nowhere else. Returns the field, its folds
+        (along the spinning objects' edges, occlusion boundaries, not counted), the share
+        spun and a note.
+        """
+        others = [(f.image, f.start - fr.start) for f in self._frames
+                  if abs(f.index - fr.index) == 1]
+        if not regions.any() or len(others) < 2:
+            self._spins = []
+            return field, folds, 0.0, ""
+
+        def track(t: np.ndarray) -> np.ndarray:
+            """Return what carries an object: the camera's path plus the row velocity."""
+            return c_at(t) + np.asarray(t)[..., None] * u_mean
+
+        # Last frame's rotations, carried to this frame's reference time.
+        hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
+                 for c, om, t in self._spins]
+        spinning, spins, weight, fitted = keep_spinning(
+            field, fr.image, others, regions, track, t_ref, self.timing.readout, hints=hints)
+        self._spins = [(s.centre, s.omega, fr.start + t_ref) for s in fitted]
+        if not spins:
+            return field, folds, 0.0, ""
+        spun_px = (weight > 0.5).astype(np.uint8)
+        k = np.ones((7, 7), np.uint8)
+        edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
+        after = float((fold_blobs(spinning) & ~edges).mean())
+        if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
+            return field, folds, 0.0, ""
+        spun = float(spun_px.mean())
+        turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
+        return spinning, after, spun, (
+            f"{len(spins)} spinning object(s) turned back by a rotation fitted per scanline "
+            f"({turns} turns per frame, {100 * spun:.0f}% of the picture)")
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
-           "keep_whole"]
+           "fill_hull", "keep_whole"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
@@ -81,6 +81,15 @@ def fold_share(field: np.ndarray) -> float:
     return float(fold_blobs(field).mean())
 
 
+def fill_hull(out: np.ndarray, piece: np.ndarray, value: int = 1) -> None:
+    """Paint the convex hull of the pixels of ``piece`` (bool) into ``out`` with ``value``.
+
+    An object found in patches (failed flow, what moves) stands for itself as one piece.
+    """
+    ys, xs = np.nonzero(piece)
+    cv2.fillConvexPoly(out, cv2.convexHull(np.stack([xs, ys], axis=1).astype(np.int32)), value)
+
+
 def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: float = 0.2,
                  most: int = 3) -> np.ndarray:
     """Objects where the flow failed its check on many pixels (bool, shape (h, w)).
@@ -112,9 +121,7 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     for i in big[:most]:
         blob = labels == i
         if unreliable[blob].mean() >= density:
-            ys, xs = np.nonzero(blob)
-            hull = cv2.convexHull(np.stack([xs, ys], axis=1).astype(np.int32))
-            cv2.fillConvexPoly(out, hull, 1)
+            fill_hull(out, blob)
     return out.astype(bool)
 
 

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .safety import fill_hull
+
 __all__ = ["Spin", "fit_spin", "spin_field", "spin_support", "spin_regions", "keep_spinning",
            "MAX_SPIN"]
 
@@ -212,7 +214,7 @@ def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
 
         The object, not the background seen through it: only they score rotations.
         """
-        still = _costs(img, oth, p, c_ref[None] * 0, np.zeros(1), trk, t_ref, rt)[0]
+        still = _costs(img, oth, p, np.zeros((1, 2)), np.zeros(1), trk, t_ref, rt)[0]
         return p[still >= MOVING]
 
     # Coarse: all rotations about 9 centres, on a shrunk copy.
@@ -353,12 +355,11 @@ def spin_regions(seeds: np.ndarray, image: np.ndarray,
     out = np.zeros((h, w), np.int32)
     n = 0
     for i in range(1, count):
-        if stats[i, cv2.CC_STAT_AREA] > largest * h * w or not seeds[labels == i].any():
+        piece = labels == i
+        if stats[i, cv2.CC_STAT_AREA] > largest * h * w or not seeds[piece].any():
             continue
-        py, px = np.nonzero(labels == i)
-        hull = cv2.convexHull(np.stack([px, py], axis=1).astype(np.int32))
         n += 1
-        cv2.fillConvexPoly(out, hull, n)
+        fill_hull(out, piece, n)
     return out
 
 
