@@ -233,10 +233,11 @@ def test_a_whip_pan_over_texture_is_corrected_not_aliased(texture):
 
 def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(scene):
     """Blades at 6 rev/s defeat the flow (left as filmed: 1.016x); a rotation fitted per
-    scanline turns them back where a frame has both neighbours. Measured here: blades
-    0.11x on the inner frames (uncorrected 5.37 px), the two end frames left as filmed
-    (1.00x); background 0.08x (the blades' 1 px seams); at 320x240
-    (benchmarks/synthetic.py) blades 0.15x over all frames, background 0.10x."""
+    scanline turns them back where a frame has both neighbours, or one and last frame's
+    rotation agrees. Measured here: blades 0.11x on the inner frames (uncorrected 5.20
+    px), the last frame 0.15x, the first left as filmed (1.00x); background 0.08x (the
+    blades' 1 px seams); at 320x240 (benchmarks/synthetic.py) blades 0.149x over all
+    frames, background 0.112x."""
     from skimage import data
 
     timing = SensorTiming(1.0)
@@ -253,8 +254,8 @@ def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(sce
         return s.layer == 1
 
     assert ratio(traj.frames[1:-1], sim[1:-1], blades) < 0.2
-    for end in (0, -1):
-        assert ratio([traj.frames[end]], [sim[end]], blades) < 1.05
+    assert ratio(traj.frames[:1], sim[:1], blades) < 1.05  # no neighbour before, no hint
+    assert ratio(traj.frames[-1:], sim[-1:], blades) < 0.3
     assert ratio(traj.frames, sim, lambda s: s.layer == 0) < 0.15
     inner = traj.frames[1:-1]
     assert all(f.spun > 0.02 and "spinning object" in f.note for f in inner)

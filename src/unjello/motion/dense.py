@@ -586,14 +586,15 @@ class DenseMethod:
                             ) -> tuple[np.ndarray, float, float, str]:
         """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
 
-        Only with a neighbour on each side (one side tells a rotation's aliases apart too
-        poorly), and only if the map then folds nowhere else. Returns the field, its folds
+        With a neighbour on each side, or one and last frame's rotations to check against
+        (one side alone tells a rotation's aliases apart too poorly), and only if the map
+        then folds nowhere else. Returns the field, its folds
         (along the spinning objects' edges, occlusion boundaries, not counted), the share
         spun and a note.
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
                   if abs(f.index - fr.index) == 1]
-        if not regions.any() or len(others) < 2:
+        if not regions.any() or not others or (len(others) < 2 and not self._spins):
             self._spins = []
             return field, folds, 0.0, ""
 

@@ -48,6 +48,9 @@ TRUNCATE = 40.0
 #: A pixel the surroundings' motion leaves at least this far from its neighbours (grey
 #: levels) belongs to the object; only such pixels score a rotation.
 MOVING = 10.0
+#: A hole in the pixels a rotation explains is filled (taken as part of the object) up to
+#: this share of their area.
+HOLE = 0.02
 
 Track = Callable[[np.ndarray], np.ndarray]
 
@@ -306,7 +309,7 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
 
     A pixel takes the rotation where it matches the neighbours better than the motion of
     the surroundings over a ``window`` square (the blades, not the background seen
-    between them), and so do the gaps and holes inside what does; the weight is smoothed
+    between them), and so do the gaps and small holes inside what does; the weight is smoothed
     over a pixel so that the seam does not tear.
     """
     h, w = image.shape
@@ -319,12 +322,18 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     rot[ys, xs], still[ys, xs] = both
     box = (window, window)
     better = ((cv2.boxFilter(rot, -1, box) < cv2.boxFilter(still, -1, box)) & region)
-    # One piece: gaps and holes inside the object (a flat patch matches either way) take
-    # the rotation too, so that the object is not torn between the two motions.
+    # One piece: gaps and small holes inside the object (a flat patch matches either
+    # way) take the rotation too, so that the object is not torn between the two motions;
+    # large holes (the background seen between a wheel's spokes) do not.
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
     solid = cv2.morphologyEx(better.astype(np.uint8), cv2.MORPH_CLOSE, k)
-    contours, _ = cv2.findContours(solid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    cv2.drawContours(solid, contours, -1, 1, thickness=cv2.FILLED)
+    count, holes, stats, _ = cv2.connectedComponentsWithStats(1 - solid, connectivity=4)
+    small = HOLE * int(solid.sum())
+    for i in range(1, count):
+        x, y, bw, bh, area = stats[i]
+        inside = x > 0 and y > 0 and x + bw < w and y + bh < h  # not the outside
+        if inside and area <= small:
+            solid[holes == i] = 1
     better = solid.astype(bool) & region
     weight = cv2.GaussianBlur(better.astype(np.float32), (0, 0), 1.0)
     return np.where(region, weight, 0.0).astype(np.float32)
@@ -404,6 +413,8 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         def good(spin: Spin, radius: float = radius) -> bool:
             steady = any(abs(spin.omega - om) <= 0.15 * abs(om)
                          and np.linalg.norm(spin.centre - c) <= radius / 4 for c, om in hints)
+            if len(others) < 2:  # one side tells aliases apart poorly: both are needed
+                return spin.gain >= min_gain and steady
             return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
 
         spin = None
