@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -84,6 +84,36 @@ class Motion:
     stop_at: float = 5.0
     knots: tuple = ()
     start_at: float = 2.0
+
+    @classmethod
+    def from_rest(cls, vx: float, vy: float, start: float = 2.0, ramp: float = 1.0
+                  ) -> Motion:
+        """Still until ``start``, then accelerating over ``ramp`` frames to (vx, vy) px/frame.
+
+        Examples
+        --------
+        >>> Motion.from_rest(10.0, 0.0)(np.array([1.0, 3.0, 5.0]))[:, 0].tolist()
+        [0.0, 5.0, 25.0]
+        """
+        t = np.arange(0, 14, 0.25)
+        s = np.where(t < start, 0.0, np.where(t < start + ramp, (t - start) ** 2 / (2 * ramp),
+                                              ramp / 2 + (t - start - ramp)))
+        return cls("spline", knots=(tuple(t), tuple(vx * s), tuple(vy * s)))
+
+    @classmethod
+    def steps(cls, velocities: Sequence[tuple[float, float]], at: Sequence[float]) -> Motion:
+        """Constant velocities (px/frame) changing within a quarter frame at the times ``at``.
+
+        Examples
+        --------
+        >>> Motion.steps([(4, 0), (10, 2)], [2.0])(np.array([2.0, 4.0])).tolist()
+        [[8.0, 0.0], [28.0, 4.0]]
+        """
+        t = np.arange(0, 14, 0.25)
+        which = np.searchsorted(np.asarray(at, dtype=np.float64), t, side="right")
+        vel = np.asarray(velocities, dtype=np.float64)[which]
+        pos = np.concatenate([[[0.0, 0.0]], np.cumsum(0.25 * vel[:-1], axis=0)])
+        return cls("spline", knots=(tuple(t), tuple(pos[:, 0]), tuple(pos[:, 1])))
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
         """Return ``D(t)`` as an array of shape ``t.shape + (2,)``."""

@@ -53,3 +53,16 @@ def test_eq13_and_sample_time():
     # Paper's rho = 1: sample of g(n) at the midpoint of middle scanlines n-1 and n.
     assert global_sample_time(4.0, 5.0, 1.0, 1001) == pytest.approx(5.0, abs=1e-3)
     assert global_sample_time(4.0, 5.0, 0.6, 1001) == pytest.approx(4.8, abs=1e-3)
+
+
+def test_eq10_interval_includes_the_vertical_motion():
+    """Content that moved g_y rows down was imaged g_y / h of a readout later in frame n
+    than in frame n - 1: the interval is dt + rho g_y / h, not dt."""
+    rho, h, v = 0.6, 360, np.array([17.5, 8.5])
+    g_y = v[1] / (1 - rho * v[1] / h)  # what the frames show (inverse of eq. 10)
+    g = np.array([v[0] * (1 + rho * g_y / h), g_y])
+    assert np.allclose(initial_velocity(g, 1.0, rho, h), v)
+    assert initial_velocity(g, 1.0)[1] == pytest.approx(1.0145 * v[1], rel=1e-3)
+    # The sample sits at the middle of that interval: earlier by half its extra length.
+    assert (global_sample_time(4.0, 5.0, rho, h, g_y)
+            == pytest.approx(global_sample_time(4.0, 5.0, rho, h) - rho * g_y / (2 * h)))

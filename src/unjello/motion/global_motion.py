@@ -92,8 +92,9 @@ class GlobalMotion:
     Attributes
     ----------
     vector : ndarray of shape (2,)
-        Sub-pixel ``(gx, gy)``: mean of the sub-pixel vectors of the blocks that voted
-        for the histogram peak.
+        Sub-pixel ``(gx, gy)``: median of the sub-pixel vectors of the blocks within one
+        pixel of the histogram peak (a median, not the mean: one block matched to a
+        neighbouring bin's texture cannot pull it).
     peak : ndarray of shape (2,)
         Integer histogram peak.
     support : float

@@ -36,7 +36,9 @@ from ..timing import SensorTiming
 from ..trajectory import FrameMotion, scanline_displacement
 from .global_motion import BlockMatchConfig, global_motion
 from .refine import (
+    LocalMatches,
     RefineConfig,
+    better_matches,
     inside_constraints,
     local_block_match,
     predict_local_motion,
@@ -46,6 +48,23 @@ from .refine import (
 from .velocity import global_sample_time, initial_velocity, scanline_velocity
 
 __all__ = ["PaperConfig", "PaperMethod"]
+
+#: A frame leaves the Bezier velocity for a correction under which its block rows'
+#: corrected motions spread this much less (mean absolute deviation, px, x plus y).
+SHEAR_MARGIN = 0.05
+#: ... and is left as is where the curve leaves the rows more than this share of the
+#: spread they have uncorrected (when that is above :data:`SHEAR_FLOOR` px).
+UNEXPLAINED = 0.85
+SHEAR_FLOOR = 0.2
+
+
+def _merge(lm: LocalMatches, far: np.ndarray, around_g: LocalMatches) -> LocalMatches:
+    """``lm`` with its ``far`` blocks' better match among theirs and ``around_g``'s."""
+    sub = LocalMatches(lm.centers[far], lm.motion[far], lm.residual[far], lm.accepted[far])
+    best = better_matches(sub, around_g)
+    motion, residual, accepted = lm.motion.copy(), lm.residual.copy(), lm.accepted.copy()
+    motion[far], residual[far], accepted[far] = best.motion, best.residual, best.accepted
+    return LocalMatches(lm.centers, motion, residual, accepted)
 
 
 @dataclass(frozen=True)
@@ -71,8 +90,12 @@ class _Pair:
     g_time: float
     g_value: np.ndarray
     g_ok: bool
+    g_vector: np.ndarray = field(default_factory=lambda: np.zeros(2))
     local_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     local_v: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    # The same samples as rows of frame k and their local motion l to frame k-1 (eq. 24)
+    local_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    local_l: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 class PaperMethod:
@@ -112,6 +135,8 @@ class PaperMethod:
                  ) -> tuple[np.ndarray, np.ndarray]:
         ts, vs = [], []
         for k, pair in self._pairs.items():
+            # A pair's local samples replace its g(n) (Sec. V.C adds them to it: see
+            # :mod:`~unjello.motion.refine` for why not).
             if local and pair.local_t.size >= 2 and k != exclude_local:
                 ts.append(pair.local_t)
                 vs.append(pair.local_v)
@@ -139,9 +164,11 @@ class PaperMethod:
         if gm:
             self._last_g = (float(gm.vector[0]), float(gm.vector[1]))
         self._pairs[k] = _Pair(
-            g_time=global_sample_time(prev[1], cur[1], self.timing.readout, h),
-            g_value=initial_velocity(gm.vector, dt),
+            g_time=global_sample_time(prev[1], cur[1], self.timing.readout, h,
+                                      float(gm.vector[1])),
+            g_value=initial_velocity(gm.vector, dt, self.timing.readout, h),
             g_ok=bool(gm),
+            g_vector=np.asarray(gm.vector, dtype=np.float64),
         )
 
     def _refine(self, k: int, prev: tuple[int, float, np.ndarray],
@@ -166,13 +193,29 @@ class PaperMethod:
             if sel.shape[0] == 0:
                 break
             lm = local_block_match(p_img, c_img, sel, l_pred[inside], cfg)
+            # Where the curve's prediction strays from g(n) by more than the window, a
+            # second window around g(n) (the search range eq. 22-23 would allow).
+            far = np.abs(l_pred[inside] - pair.g_vector).max(axis=1) > cfg.radius
+            if pair.g_ok and far.any():
+                around_g = local_block_match(p_img, c_img, sel[far],
+                                             np.broadcast_to(pair.g_vector, (int(far.sum()), 2)),
+                                             cfg)
+                lm = _merge(lm, far, around_g)
             v = refined_velocity(lm.motion, dt, rho, h)
             s1_t = cur[1] + rho * sel[:, 1] / h
             s2_t = prev[1] + rho * (sel[:, 1] - lm.motion[:, 1]) / h
             t_s, v_s = row_samples(lm, v, 0.5 * (s1_t + s2_t), b, cfg.min_blocks)
+            # No sample beyond what the global search could have measured.
+            measurable = np.abs(v_s).max(axis=1, initial=0.0) <= self.config.global_motion.search
+            t_s, v_s = t_s[measurable], v_s[measurable]
             if t_s.size < 2:
                 break
             pair.local_t, pair.local_v = t_s, v_s
+            # Back from the samples to their rows and local motions (eq. 25 and the
+            # sample time, inverted).
+            pair.local_l = predict_local_motion(v_s, dt, rho, h)
+            pair.local_y = ((t_s - 0.5 * (prev[1] + cur[1])) * 2 * h / max(rho, 1e-9)
+                            + pair.local_l[:, 1]) / 2
 
     def _emit(self, n: int, start: float, height: int) -> FrameMotion:
         times = self.timing.row_times(height, start)
@@ -188,7 +231,59 @@ class PaperMethod:
             note = "; ".join(x for x in (note, "local samples diverged: the global motion "
                                          "alone used") if x)
         disp = scanline_displacement(vel, self.timing)
+        vel, disp, said = self._least_sheared(n, times, vel, disp)
+        note = "; ".join(x for x in (note, said) if x)
+        self._last_disp = (n, disp)
         return FrameMotion(n, start, disp, vel, ok=ok, note=note)
+
+    def _least_sheared(self, n: int, times: np.ndarray, vel: np.ndarray, disp: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, str]:
+        """Do no harm: keep the correction under which frames n-1 and n agree best.
+
+        Two global-shutter frames of a translating camera differ by one translation, so
+        after a right correction every block row of frame ``n`` has moved from frame
+        ``n - 1`` by the same vector. With the block rows' local motions ``l(y)``
+        (eq. 24) and the corrections ``D`` (eq. 26) of both frames, a row's corrected
+        motion is ``l(y) - D_n(y) + D_{n-1}(y - l_y)``. Where the Bezier velocity makes
+        these rows disagree more than the global motion alone (a constant velocity) or no
+        correction does -- a frame after a sudden stop or before a start, which the curve
+        reaches into -- the frame takes the one under which they agree best. Where the
+        curve barely helps them agree (a vibration faster than the curve can follow,
+        which it follows out of phase), the frame is left as is. Either is said in the
+        frame's note. The frame before must have been emitted (not on a clip's first).
+        """
+        pair = self._pairs.get(n)
+        last = getattr(self, "_last_disp", None)
+        if (pair is None or last is None or last[0] != n - 1 or pair.local_y.size < 4
+                or self.timing.readout <= 0):
+            return vel, disp, ""
+        rows = np.arange(disp.shape[0], dtype=np.float64)
+        y, local = pair.local_y, pair.local_l
+
+        def at(d: np.ndarray, where: np.ndarray) -> np.ndarray:
+            return np.stack([np.interp(where, rows, d[:, k]) for k in range(2)], axis=1)
+
+        def spread(d: np.ndarray) -> float:
+            moved = local - at(d, y) + at(last[1], y - local[:, 1])
+            return float(np.abs(moved - np.median(moved, axis=0)).mean(axis=0).sum())
+
+        t, v = self._samples(local=False)
+        g_vel = scanline_velocity(t, v, times)
+        options = {"the Bezier velocity": (vel, disp),
+                   "the global motion alone": (g_vel, scanline_displacement(g_vel, self.timing)),
+                   "no correction": (np.zeros_like(vel), np.zeros_like(disp))}
+        score = {k: spread(d) for k, (_, d) in options.items()}
+        curve = score["the Bezier velocity"]
+        best = min(score, key=lambda k: score[k])
+        if score[best] + SHEAR_MARGIN < curve:
+            return (*options[best], f"{best} used: block rows agree better with it "
+                    f"({score[best]:.2f} px against {curve:.2f} px)")
+        still = score["no correction"]
+        if still > SHEAR_FLOOR and curve > UNEXPLAINED * still:
+            return (*options["no correction"], "frame left as is: the Bezier velocity does "
+                    f"not explain its motion (block rows {curve:.2f} px apart with it, "
+                    f"{still:.2f} px without; a vibration?)")
+        return vel, disp, ""
 
     # -- streaming API -----------------------------------------------------------------
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:

@@ -9,21 +9,26 @@ boundaries, which is what causes over-compensation after a sudden stop (Fig. 6-7
 Generalisation to a readout ratio ``rho`` and to real timestamps
 -----------------------------------------------------------------
 With time in frame intervals, scanline ``r`` of a frame starting at ``t_n`` is imaged
-at ``t_n + rho r / h`` (:mod:`unjello.timing`). ``g(n)`` is the displacement between
-the middle scanlines of frames ``n - 1`` and ``n``, i.e. (eq. 1 and 12)
-``g(n) = integral of v over [t_{n-1} + rho/2, t_n + rho/2]``, an interval of length
-``t_n - t_{n-1}`` (1 for a constant frame rate, whatever ``rho``). By the mean value
-theorem (eq. 10) ``g(n) / (t_n - t_{n-1})`` is the velocity at some instant of that
-interval. The paper writes it at the interval's *end*, ``(n + 0.5)T`` (eq. 13); we
-place it at the interval's *midpoint*
-``tau_n = (t_{n-1} + t_n) / 2 + rho (h - 1) / (2h)``, which is exact for a velocity
-that changes linearly and removes a half-frame lag (the lag itself over-compensates
-after a stop, the artefact Sec. V.B sets out to avoid). For ``rho = 1`` and a constant
-rate ``tau_n = n``, so the four samples around frame ``n``'s scanlines
-``[n, n + 1)`` are ``tau_{n-1} .. tau_{n+2}``, evenly spaced, and eq. 15-18 hold with
-``lambda = 0, 1/3, 2/3, 1``; eq. 19 becomes ``lambda = (t - tau_{n-1}) / 3``. With
-variable frame rate the samples are not evenly spaced and the ``lambda`` of each sample
-is its relative position in the span of the four, which keeps the curve through them.
+at ``t_n + rho r / h`` (:mod:`unjello.timing`). ``g(n)`` is the displacement of the
+middle scanline of frame ``n`` from where its content was in frame ``n - 1``: the
+content at row ``y`` of frame ``n`` was at row ``y - g_y`` of frame ``n - 1``, so by
+eq. 1, 2 and 12 ``g(n)`` is the integral of ``v`` over
+``[t_{n-1} + rho (y - g_y) / h, t_n + rho y / h]``, an interval of length
+``dt + rho g_y / h`` with ``dt = t_n - t_{n-1}`` (the paper's eq. 25 for the local
+motion, ``T - l_y``, is the same interval). By the mean value theorem (eq. 10)
+``g(n) / (dt + rho g_y / h)`` is the velocity at some instant of that interval; eq. 13's
+``g(n) / T`` is the case without vertical motion (a diagonal pan of 17 px a frame down
+a 360-line frame at ``rho = 0.6`` would be 3 % off). The paper writes the sample at the
+interval's *end*, ``(n + 0.5)T`` (eq. 13); we place it at the interval's *midpoint*
+``tau_n = (t_{n-1} + t_n) / 2 + rho (h - 1 - g_y) / (2h)``, which is exact for a
+velocity that changes linearly and removes a half-frame lag (the lag itself
+over-compensates after a stop, the artefact Sec. V.B sets out to avoid). For ``rho = 1``,
+a constant rate and no vertical motion ``tau_n = n``, so the four samples around frame
+``n``'s scanlines ``[n, n + 1)`` are ``tau_{n-1} .. tau_{n+2}``, evenly spaced, and
+eq. 15-18 hold with ``lambda = 0, 1/3, 2/3, 1``; eq. 19 becomes
+``lambda = (t - tau_{n-1}) / 3``. With variable frame rate or vertical motion the
+samples are not evenly spaced and the ``lambda`` of each sample is its relative
+position in the span of the four, which keeps the curve through them.
 
 Clip ends: the first frame has no previous frame and so no ``g``; where fewer than two
 samples exist on one side of a scanline, the window of four slides inward (the curve is
@@ -48,8 +53,14 @@ __all__ = [
 ]
 
 
-def initial_velocity(g: np.ndarray, interval: float = 1.0) -> np.ndarray:
-    """Velocity sample from a global motion vector, eq. 13: ``v' = g(n) / T``.
+def initial_velocity(g: np.ndarray, interval: float = 1.0, readout: float = 0.0,
+                     height: int = 1) -> np.ndarray:
+    """Velocity sample from a global motion vector, eq. 13 with eq. 10's interval.
+
+    ``v' = g(n) / (dt + rho g_y / h)``: the content of the middle scanline moved by
+    ``g(n)`` between the instants it was imaged in the two frames, ``g_y / h`` of a
+    readout apart beyond the frames' ``dt`` (see the module notes). Without vertical
+    motion (or with ``readout = 0``) this is the paper's ``g(n) / T``.
 
     Parameters
     ----------
@@ -57,24 +68,39 @@ def initial_velocity(g: np.ndarray, interval: float = 1.0) -> np.ndarray:
         Global motion vector between the middle scanlines of two frames.
     interval : float
         Time between the two frames' starts, in frame intervals (1 at constant rate).
+    readout : float
+        Readout ratio ``rho``.
+    height : int
+        Frame height ``h``.
 
     Returns
     -------
     ndarray of shape (2,)
         Velocity in px per frame interval.
+
+    Examples
+    --------
+    >>> initial_velocity(np.array([11.0, 11.0]), 1.0, 1.0, 100).round(4).tolist()
+    [9.9099, 9.9099]
     """
-    return np.asarray(g, dtype=np.float64) / float(interval)
+    g = np.asarray(g, dtype=np.float64)
+    return g / (float(interval) + readout * g[1] / height)
 
 
-def global_sample_time(start_prev: float, start_cur: float, readout: float, height: int) -> float:
+def global_sample_time(start_prev: float, start_cur: float, readout: float, height: int,
+                       g_y: float = 0.0) -> float:
     """Time at which the velocity sample of ``g(n)`` is placed (eq. 13, see module notes).
+
+    The midpoint of the interval over which the middle scanline's content moved by
+    ``g(n)``: from ``t_{n-1} + rho (y_m - g_y) / h`` to ``t_n + rho y_m / h``,
+    ``y_m = (h - 1) / 2``.
 
     Examples
     --------
     >>> global_sample_time(4.0, 5.0, 1.0, 2)
     4.75
     """
-    return 0.5 * (start_prev + start_cur) + readout * (height - 1) / (2.0 * height)
+    return 0.5 * (start_prev + start_cur) + readout * (height - 1 - g_y) / (2.0 * height)
 
 
 def bernstein(lam: np.ndarray, degree: int = 3) -> np.ndarray:
