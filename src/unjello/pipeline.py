@@ -22,7 +22,7 @@ import numpy as np
 from .config import CorrectionConfig, ResolvedTiming, resolve_timing
 from .errors import InputError
 from .exports import SideOutputs
-from .io.sidecars import find_gyro_log, read_gyro
+from .io.sidecars import gyro_source, read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .motion.dense import DenseMethod
@@ -286,15 +286,16 @@ def correct_video(
             motion_timing=given.timing if given is not None else None,
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
+        gyro_log = None
+        if config.method == "gyro" and given is None:
+            gyro_log, said = gyro_source(src_p, config.gyro)
+            resolved = dataclasses.replace(resolved, sources={**resolved.sources, "gyro": said},
+                               messages=(*resolved.messages, f"gyro: {said}"))
         for message in resolved.messages:
             if log:
                 log(message)
         if on_timing:
             on_timing(resolved)
-        gyro_log = None
-        if config.method == "gyro" and given is None:
-            path = config.gyro.path or find_gyro_log(src_p)
-            gyro_log = read_gyro(path, config.gyro.layout, config.gyro.units)
         corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
                               motion=given, fps=resolved.fps, gyro_log=gyro_log)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),

@@ -93,8 +93,9 @@ def test_diverged_local_samples_fall_back_to_the_global_motion(scene):
 
 def test_a_still_frame_after_a_stop_stays_still(scene):
     """The Bezier curve reaches across a sudden stop into the first still frame (the
-    paper's Fig. 7); block rows of that frame agree best uncorrected, so it is left as is:
-    measured 100 dB against the truth (38.8 dB with the curve)."""
+    paper's Fig. 7); the pair after it shows no motion at all, so the camera stood still
+    while it was read and it is left as is: 100 dB against the truth (38.8 dB with the
+    curve)."""
     timing = SensorTiming(1.0)
     sim = list(simulate(scene, Motion("stop", speed=7.0, stop_at=6.0), timing, 10,
                         size=(320, 240)))
@@ -102,7 +103,7 @@ def test_a_still_frame_after_a_stop_stays_still(scene):
     motions = [fm for k, g in enumerate(_grey(sim)) for fm in method.push(g, float(k))]
     motions += method.flush()
     assert np.abs(motions[6].displacement).max() < 1e-9
-    assert "no correction used" in motions[6].note
+    assert motions[6].note.startswith("still")
     err = [displacement_error(m, s.motion) for m, s in zip(motions, sim, strict=True)]
     assert max(err[6:]) < 1e-6 and max(err[:5]) < 0.01
 

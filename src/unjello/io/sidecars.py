@@ -17,9 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SettingsError
-from ..motion.gyro import GyroLog
+from ..motion.gyro import GyroConfig, GyroLog
+from .telemetry import embedded_gyro
 
-__all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "read_gyro", "write_gyro"]
+__all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "gyro_source", "read_gyro",
+           "write_gyro"]
 
 
 @dataclass(frozen=True)
@@ -136,6 +138,39 @@ def find_gyro_log(src: str | os.PathLike) -> Path:
             return cand
     raise SettingsError(f"the gyro method needs a gyro log: pass gyro=FILE or put "
                         f"{base.name}.gyro.csv beside {src.name}")
+
+
+def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, str]:
+    """The gyro samples for a clip, and where they came from (one line).
+
+    In order: the log given (``config.path``), a log beside the clip
+    (:func:`find_gyro_log`), the gyro the camera wrote into the file itself
+    (:func:`~unjello.io.telemetry.embedded_gyro`).
+
+    Raises
+    ------
+    SettingsError
+        If there is none of them.
+    """
+    if config.path:
+        return read_gyro(config.path, config.layout, config.units), \
+            f"gyro log {Path(config.path).name}"
+    try:
+        path = find_gyro_log(src)
+    except SettingsError as missing:
+        src_p = Path(src)
+        found = embedded_gyro(src_p) if src_p.is_file() else None
+        if found is None:
+            raise SettingsError(f"{missing}; {src_p.name} has no gyro of its own that "
+                                "telemetry-parser can read") from None
+        if found.stabilised:
+            raise SettingsError(
+                f"{src_p.name}: {found.describe()}, but the camera stabilised the picture "
+                f"itself (stabilisation {found.stabilised!r}), so it no longer moves as the "
+                "gyro says; use the dense method, or record with the camera's "
+                "stabilisation off")
+        return found.log, found.describe()
+    return read_gyro(path, config.layout, config.units), f"gyro log {path.name}"
 
 
 def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> GyroLog:

@@ -350,8 +350,13 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
             if result is None or agree > result[3]:
                 result = (float(o), m, f, agree)
     if result is None or result[3] < _AGREEMENT:
-        raise InputError("the gyro log does not explain the footage's motion (check the log "
-                         "belongs to this clip, its gyro_layout= and gyro_units=)")
+        share = f"at most {100 * max(result[3], 0.0):.0f}%" if result else "none"
+        raise InputError(
+            f"the gyro log does not explain the footage's motion ({share} of the row motion "
+            f"in the first frames, at any clock offset, axes and plausible focal length; "
+            f"{100 * _AGREEMENT:.0f}% needed). Check that the log belongs to this clip and "
+            "its gyro_layout= and gyro_units=; a camera that hardly rotates (on a gimbal, "
+            "its picture moving with the vehicle's travel) needs the dense method")
     return GyroCalibration(axes=result[1], offset=result[0], focal=result[2],
                            agreement=result[3])
 

@@ -49,13 +49,13 @@ from .velocity import global_sample_time, initial_velocity, scanline_velocity
 
 __all__ = ["PaperConfig", "PaperMethod"]
 
-#: A frame leaves the Bezier velocity for a correction under which its block rows'
-#: corrected motions spread this much less (mean absolute deviation, px, x plus y).
-SHEAR_MARGIN = 0.05
-#: ... and is left as is where the curve leaves the rows more than this share of the
-#: spread they have uncorrected (when that is above :data:`SHEAR_FLOOR` px).
+#: A frame is left as is where the Bezier velocity leaves its block rows' corrected
+#: motions more than this share of the spread (mean absolute deviation, px, x plus y)
+#: they have uncorrected, when that is above :data:`SHEAR_FLOOR` px.
 UNEXPLAINED = 0.85
 SHEAR_FLOOR = 0.2
+#: A frame pair whose global motion and every local sample are below this (px) is still.
+STILL = 0.05
 
 
 def _merge(lm: LocalMatches, far: np.ndarray, around_g: LocalMatches) -> LocalMatches:
@@ -217,72 +217,86 @@ class PaperMethod:
             pair.local_y = ((t_s - 0.5 * (prev[1] + cur[1])) * 2 * h / max(rho, 1e-9)
                             + pair.local_l[:, 1]) / 2
 
+    def _frame_velocity(self, times: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The Bezier velocity at ``times``, or, where the local samples diverged (a
+        velocity beyond what the global search could have measured), the global motion's
+        alone (Sec. V.B); and whether they diverged."""
+        vel = self._velocity(times)
+        if np.isfinite(vel).all() and np.abs(vel).max() <= self.config.global_motion.search:
+            return vel, False
+        t, v = self._samples(local=False)
+        return scanline_velocity(t, v, times), True
+
     def _emit(self, n: int, start: float, height: int) -> FrameMotion:
         times = self.timing.row_times(height, start)
-        vel = self._velocity(times)
+        vel, diverged = self._frame_velocity(times)
         ok = any(p.g_ok for k, p in self._pairs.items() if k in (n, n + 1))
-        note = "" if ok else "no global motion found near this frame; velocity bridged"
-        # No velocity beyond what the global search could have measured: the local
-        # samples diverged; the global motion alone (Sec. V.B) is used for this frame.
-        limit = float(self.config.global_motion.search)
-        if not np.isfinite(vel).all() or np.abs(vel).max() > limit:
-            t, v = self._samples(local=False)
-            vel = scanline_velocity(t, v, times)
-            note = "; ".join(x for x in (note, "local samples diverged: the global motion "
-                                         "alone used") if x)
+        notes = ["" if ok else "no global motion found near this frame; velocity bridged",
+                 "local samples diverged: the global motion alone used" if diverged else ""]
         disp = scanline_displacement(vel, self.timing)
+        curve = disp
         vel, disp, said = self._least_sheared(n, times, vel, disp)
-        note = "; ".join(x for x in (note, said) if x)
-        self._last_disp = (n, disp)
-        return FrameMotion(n, start, disp, vel, ok=ok, note=note)
+        self._last_curve = (n, curve)  # the next frame is judged against it, not a choice
+        return FrameMotion(n, start, disp, vel, ok=ok,
+                           note="; ".join(x for x in (*notes, said) if x))
 
     def _least_sheared(self, n: int, times: np.ndarray, vel: np.ndarray, disp: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, str]:
-        """Do no harm: keep the correction under which frames n-1 and n agree best.
+        """Do no harm: keep the correction under which frame n agrees with its neighbours.
 
         Two global-shutter frames of a translating camera differ by one translation, so
-        after a right correction every block row of frame ``n`` has moved from frame
-        ``n - 1`` by the same vector. With the block rows' local motions ``l(y)``
-        (eq. 24) and the corrections ``D`` (eq. 26) of both frames, a row's corrected
-        motion is ``l(y) - D_n(y) + D_{n-1}(y - l_y)``. Where the Bezier velocity makes
-        these rows disagree more than the global motion alone (a constant velocity) or no
-        correction does -- a frame after a sudden stop or before a start, which the curve
-        reaches into -- the frame takes the one under which they agree best. Where the
-        curve barely helps them agree (a vibration faster than the curve can follow,
-        which it follows out of phase), the frame is left as is. Either is said in the
-        frame's note. The frame before must have been emitted (not on a clip's first).
+        after a right correction every block row of a frame has moved from the frame
+        before by the same vector. With the block rows' local motions ``l(y)`` (eq. 24)
+        and the corrections ``D`` (eq. 26) of both frames, a row's corrected motion is
+        ``l(y) - D_k(y) + D_{k-1}(y - l_y)``; its spread over the rows is measured for the
+        pairs (n-1, n) and (n, n+1), with the neighbours' Bezier corrections. Where the
+        curve barely makes them agree better than no correction (a vibration faster than
+        the curve can follow, which it follows out of phase), the frame is left as is.
+        And a frame next to a pair that shows no motion at all was read while the camera
+        stood still (the frame after a sudden stop, before a start, which the curve
+        reaches into: the paper's Fig. 7): it is left as is too. Either is said in the
+        frame's note.
         """
-        pair = self._pairs.get(n)
-        last = getattr(self, "_last_disp", None)
-        if (pair is None or last is None or last[0] != n - 1 or pair.local_y.size < 4
-                or self.timing.readout <= 0):
+        h = disp.shape[0]
+        checks = []  # (pair, earlier frame's D, later frame's D); None: the candidate
+        last = getattr(self, "_last_curve", None)
+        back = self._pairs.get(n)
+        if back is not None and back.local_y.size >= 4 and last is not None and last[0] == n - 1:
+            checks.append((back, last[1], None))
+        ahead = self._pairs.get(n + 1)
+        nxt = next((p for p in self._pending if p[0] == n + 1), None)
+        if ahead is not None and ahead.local_y.size >= 4 and nxt is not None:
+            later = scanline_displacement(
+                self._frame_velocity(self.timing.row_times(h, nxt[1]))[0], self.timing)
+            checks.append((ahead, None, later))
+        if not checks or self.timing.readout <= 0:
             return vel, disp, ""
-        rows = np.arange(disp.shape[0], dtype=np.float64)
-        y, local = pair.local_y, pair.local_l
+        rows = np.arange(h, dtype=np.float64)
 
         def at(d: np.ndarray, where: np.ndarray) -> np.ndarray:
             return np.stack([np.interp(where, rows, d[:, k]) for k in range(2)], axis=1)
 
         def spread(d: np.ndarray) -> float:
-            moved = local - at(d, y) + at(last[1], y - local[:, 1])
-            return float(np.abs(moved - np.median(moved, axis=0)).mean(axis=0).sum())
+            total = 0.0
+            for pair, earlier, later in checks:
+                y, local = pair.local_y, pair.local_l
+                moved = (local - at(d if later is None else later, y)
+                         + at(d if earlier is None else earlier, y - local[:, 1]))
+                total += float(np.abs(moved - np.median(moved, axis=0)).mean(axis=0).sum())
+            return total / len(checks)
 
-        t, v = self._samples(local=False)
-        g_vel = scanline_velocity(t, v, times)
-        options = {"the Bezier velocity": (vel, disp),
-                   "the global motion alone": (g_vel, scanline_displacement(g_vel, self.timing)),
-                   "no correction": (np.zeros_like(vel), np.zeros_like(disp))}
-        score = {k: spread(d) for k, (_, d) in options.items()}
-        curve = score["the Bezier velocity"]
-        best = min(score, key=lambda k: score[k])
-        if score[best] + SHEAR_MARGIN < curve:
-            return (*options[best], f"{best} used: block rows agree better with it "
-                    f"({score[best]:.2f} px against {curve:.2f} px)")
-        still = score["no correction"]
+        # A frame next to a still pair was read while the camera stood still: the pair's
+        # rows cover [t_{n-1}, t_n + rho] (or [t_n, t_{n+1} + rho]), all of its readout.
+        for pair, _, _ in checks:
+            if pair.g_ok and np.abs(pair.g_vector).max() < STILL and \
+                    np.abs(pair.local_l).max() < STILL:
+                return np.zeros_like(vel), np.zeros_like(disp), (
+                    "still: a neighbouring frame shows no motion at all")
+        curve, still = spread(disp), spread(np.zeros_like(disp))
         if still > SHEAR_FLOOR and curve > UNEXPLAINED * still:
-            return (*options["no correction"], "frame left as is: the Bezier velocity does "
-                    f"not explain its motion (block rows {curve:.2f} px apart with it, "
-                    f"{still:.2f} px without; a vibration?)")
+            return np.zeros_like(vel), np.zeros_like(disp), (
+                "frame left as is: the Bezier velocity does not explain its motion (block "
+                f"rows {curve:.2f} px apart with it, {still:.2f} px without; a vibration?)")
         return vel, disp, ""
 
     # -- streaming API -----------------------------------------------------------------

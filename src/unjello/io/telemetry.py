@@ -1,0 +1,125 @@
+"""The gyroscope a camera wrote into its own video file, read by ``telemetry-parser``.
+
+Action cameras, drones and many mirrorless bodies record their IMU beside the picture:
+GoPro (GPMF), Sony (rtmd), DJI, Insta360, Blackmagic and others. The ``telemetry-parser``
+package (the Gyroflow project's reader) decodes them all and gives the samples in one
+form: times in ms on the video's clock and angular rates in degrees per second, in the
+camera's own axes. This module turns them into a :class:`~unjello.motion.gyro.GyroLog`
+(seconds, rad/s) for the gyro method; which gyro axes are the camera's x, y and z, the
+clock offset and the focal length are still found from the footage
+(:func:`unjello.motion.gyro.calibrate`) unless they are given.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..motion.gyro import GyroLog
+
+__all__ = ["EmbeddedGyro", "embedded_gyro"]
+
+
+@dataclass(frozen=True)
+class EmbeddedGyro:
+    """A camera's own gyro samples, read from its video file.
+
+    Attributes
+    ----------
+    log : GyroLog
+        The samples (seconds on the video's clock, rad/s).
+    camera, model : str
+        As ``telemetry-parser`` names them (e.g. ``GoPro``, ``HERO5 Black``).
+    stabilised : str
+        How the camera says it stabilised the picture itself (GoPro's ``EISA`` tag, e.g.
+        ``HS HLevel`` for HyperSmooth with horizon levelling); empty when it did not.
+        Such a picture no longer moves as the gyro says.
+    """
+
+    log: GyroLog
+    camera: str
+    model: str
+    stabilised: str = ""
+
+    @property
+    def rate_hz(self) -> float:
+        """Mean sampling rate."""
+        t = self.log.time
+        return float((t.size - 1) / (t[-1] - t[0]))
+
+    def describe(self) -> str:
+        """One line: whose gyro, how many samples."""
+        name = self.model if self.model.startswith(self.camera) else \
+            f"{self.camera} {self.model}".strip()
+        return (f"the camera's own gyro ({name or 'unknown camera'}: {self.log.time.size:,} "
+                f"samples at {self.rate_hz:.0f} Hz, read by telemetry-parser)")
+
+
+def embedded_gyro(path: str | os.PathLike) -> EmbeddedGyro | None:
+    """Return the gyro samples embedded in a video file, or None if it has none.
+
+    Parameters
+    ----------
+    path : path-like
+        The video file as the camera wrote it.
+
+    Returns
+    -------
+    EmbeddedGyro or None
+        None when ``telemetry-parser`` is not installed, does not know the file, or finds
+        fewer than two gyro samples in it.
+
+    Raises
+    ------
+    InputError
+        When the samples are there but unusable (times not increasing after sorting out
+        repeats).
+    """
+    try:
+        import telemetry_parser
+    except ImportError:
+        return None
+    try:
+        parser = telemetry_parser.Parser(str(path))
+        samples = parser.normalized_imu()
+    except Exception:  # noqa: BLE001 - the vendor parsers raise anything on other files
+        return None
+    rows = [(s["timestamp_ms"], *s["gyro"]) for s in samples or ()
+            if s.get("gyro") is not None and s.get("timestamp_ms") is not None]
+    if len(rows) < 2:
+        return None
+    data = np.asarray(rows, dtype=np.float64)
+    data = data[np.argsort(data[:, 0], kind="stable")]
+    keep = np.concatenate([[True], np.diff(data[:, 0]) > 0])  # repeated stamps: the first
+    data = data[keep]
+    if data.shape[0] < 2 or not np.isfinite(data).all():
+        raise InputError(f"{path}: the embedded gyro samples are unusable")
+    log = GyroLog(data[:, 0] / 1000.0, np.deg2rad(data[:, 1:4]))
+    return EmbeddedGyro(log, str(parser.camera or "").strip(), str(parser.model or "").strip(),
+                        _stabilised(parser))
+
+
+# GoPro's GPMF keys, as telemetry-parser names the ones it has no name for: EISE (image
+# stabilisation enabled, Y/N) and EISA (which: "N", "Y", "HS HLevel", ...).
+_EISE, _EISA = "0x45495345", "0x45495341"
+
+
+def _stabilised(parser: object) -> str:
+    """The camera's own stabilisation setting, if its metadata says it was on."""
+    try:
+        groups = parser.telemetry(human_readable=True)  # type: ignore[attr-defined]
+    except Exception:  # noqa: BLE001 - metadata is optional
+        return ""
+    for group in groups or ():
+        for tags in (group or {}).values():
+            if not isinstance(tags, dict):
+                continue
+            mode = str(tags.get(_EISA, "")).strip()
+            if mode and mode.upper() not in ("N", "NO", "OFF"):
+                return mode
+            if str(tags.get(_EISE, "")).strip().upper() == "Y":
+                return "on"
+    return ""
