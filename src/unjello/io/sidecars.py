@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..motion.gyro import GyroConfig, GyroLog
-from .telemetry import embedded_gyro
+from .telemetry import embedded_gyro, telemetry_available
 
 __all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "gyro_source", "read_gyro",
            "write_gyro"]
@@ -141,7 +141,7 @@ def find_gyro_log(src: str | os.PathLike) -> Path:
 
 
 def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, str]:
-    """The gyro samples for a clip, and where they came from (one line).
+    """Return the gyro samples for a clip, and where they came from (one line).
 
     In order: the log given (``config.path``), a log beside the clip
     (:func:`find_gyro_log`), the gyro the camera wrote into the file itself
@@ -161,14 +161,16 @@ def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, st
         src_p = Path(src)
         found = embedded_gyro(src_p) if src_p.is_file() else None
         if found is None:
+            reader = ("telemetry-parser can read" if telemetry_available() else
+                      "could be read: telemetry-parser is not installed")
             raise SettingsError(f"{missing}; {src_p.name} has no gyro of its own that "
-                                "telemetry-parser can read") from None
+                                f"{reader}") from None
         if found.stabilised:
             raise SettingsError(
                 f"{src_p.name}: {found.describe()}, but the camera stabilised the picture "
                 f"itself (stabilisation {found.stabilised!r}), so it no longer moves as the "
                 "gyro says; use the dense method, or record with the camera's "
-                "stabilisation off")
+                "stabilisation off") from None
         return found.log, found.describe()
     return read_gyro(path, config.layout, config.units), f"gyro log {path.name}"
 

@@ -12,6 +12,7 @@ clock offset and the focal length are still found from the footage
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from dataclasses import dataclass
 
@@ -20,7 +21,12 @@ import numpy as np
 from ..errors import InputError
 from ..motion.gyro import GyroLog
 
-__all__ = ["EmbeddedGyro", "embedded_gyro"]
+__all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available"]
+
+
+def telemetry_available() -> bool:
+    """Return whether ``telemetry-parser`` is installed (a default dependency on 3.11-3.12)."""
+    return importlib.util.find_spec("telemetry_parser") is not None
 
 
 @dataclass(frozen=True)
@@ -108,7 +114,7 @@ _EISE, _EISA = "0x45495345", "0x45495341"
 
 
 def _stabilised(parser: object) -> str:
-    """The camera's own stabilisation setting, if its metadata says it was on."""
+    """Return the camera's own stabilisation setting, if its metadata says it was on."""
     try:
         groups = parser.telemetry(human_readable=True)  # type: ignore[attr-defined]
     except Exception:  # noqa: BLE001 - metadata is optional

@@ -218,9 +218,11 @@ class PaperMethod:
                             + pair.local_l[:, 1]) / 2
 
     def _frame_velocity(self, times: np.ndarray) -> tuple[np.ndarray, bool]:
-        """The Bezier velocity at ``times``, or, where the local samples diverged (a
-        velocity beyond what the global search could have measured), the global motion's
-        alone (Sec. V.B); and whether they diverged."""
+        """Return the Bezier velocity at ``times``, and whether the samples diverged.
+
+        Where they diverged (a velocity beyond what the global search could have
+        measured), the global motion's alone (Sec. V.B) is returned instead.
+        """
         vel = self._velocity(times)
         if np.isfinite(vel).all() and np.abs(vel).max() <= self.config.global_motion.search:
             return vel, False
@@ -258,7 +260,8 @@ class PaperMethod:
         frame's note.
         """
         h = disp.shape[0]
-        checks = []  # (pair, earlier frame's D, later frame's D); None: the candidate
+        # (pair, earlier frame's D, later frame's D); None: the candidate
+        checks: list[tuple[_Pair, np.ndarray | None, np.ndarray | None]] = []
         last = getattr(self, "_last_curve", None)
         back = self._pairs.get(n)
         if back is not None and back.local_y.size >= 4 and last is not None and last[0] == n - 1:
