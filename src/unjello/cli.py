@@ -7,6 +7,7 @@ output.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import sys
@@ -478,6 +479,37 @@ def probe(input: Path, as_json: bool) -> None:
     else:
         click.echo("readout: not stated by the file or a sidecar; measure it (unjello readout), "
                    "estimate it (unjello estimate-readout) or pass --readout")
+
+
+@cli.command()
+@click.argument("search", nargs=-1)
+@click.option("--all", "show_all", is_flag=True, help="Also the modes no profile gives a "
+              "readout for.")
+@click.option("--json", "as_json", is_flag=True, help="One JSON object per mode.")
+def cameras(search: tuple[str, ...], show_all: bool, as_json: bool) -> None:
+    """List the camera database's modes matching SEARCH (words of brand, model, mode)."""
+    from .cameras import search as find
+
+    modes = [m for m in find(" ".join(search)) if show_all or m.readout_ms]
+    if as_json:
+        for m in modes:
+            click.echo(json.dumps(dataclasses.asdict(m)))
+        return
+    if not modes:
+        raise UnjelloError(f"no camera in the database matches {' '.join(search)!r}"
+                           + ("" if show_all else " with a readout (try --all)"))
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table("camera", "mode", "size", "fps", "readout", "profiles",
+                  title=f"{len(modes)} mode(s); readout: median of the profiles stating one "
+                        "(agreeing within 5 % / stating); - : bottom to top")
+    for m in modes:
+        readout = (f"{m.readout_ms:g} ms ({m.readout_agree}/{m.readout_n})"
+                   if m.readout_ms else "")
+        table.add_row(m.name, m.mode, f"{m.width}x{m.height}", f"{m.fps:g}", readout,
+                      str(m.profiles))
+    Console().print(table)
 
 
 def main(argv: list[str] | None = None) -> Any:

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .cameras import CameraMatch, match
 from .errors import SettingsError
 from .io.sidecars import stated_readout
 from .io.video import EncodeOptions
@@ -98,6 +99,8 @@ class CorrectionConfig:
     direction: str | None = None
     reference: str | None = None
     fps: float | None = None
+    camera: str | None = None
+    lens_profile: str | None = None
     warp: str = "remap"
     fill: str = "nearest"
     paper: PaperConfig = field(default_factory=PaperConfig)
@@ -337,6 +340,11 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "middle).", choices=REFERENCES),
     Option("fps", "fps", "Frame rate of a folder of frames (default 30), for readouts in ms "
            "and the gyro method; overrides a video's.", kind="float"),
+    Option("camera", "camera", "Camera, as `unjello cameras` lists it (e.g. 'GoPro HERO5 "
+           "Black'): its readout and scan direction from the camera database, for the "
+           "clip's size and frame rate. Default: the camera the file names."),
+    Option("lens_profile", "lens_profile", "A Gyroflow lens profile (JSON): its "
+           "frame_readout_time.", kind="path", per_clip=True),
     Option("warp", "warp", "Backward remap (fast) or the paper's forward splat.",
            choices=WARPS),
     Option("fill", "fill", "What fills the area no scanline reaches.", choices=FILLS),
@@ -375,7 +383,7 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "veryslow)."),
 )}
 
-_TIMING = ("readout", "direction", "reference", "fps")
+_TIMING = ("readout", "direction", "reference", "fps", "camera", "lens_profile")
 
 #: Named presets: option names and values, applied under the command line's.
 PRESETS: dict[str, dict[str, Any]] = {
@@ -416,7 +424,9 @@ class ResolvedTiming:
 
 def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | None,
                    motion_timing: SensorTiming | None = None,
-                   estimate: Callable[[str, float], Any] | None = None) -> ResolvedTiming:
+                   estimate: Callable[[str, float], Any] | None = None,
+                   size: tuple[int, int] | None = None,
+                   identified: str | None = None) -> ResolvedTiming:
     """Decide readout, direction, reference and frame rate, in the documented order.
 
     Parameters
@@ -433,6 +443,19 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
         ``estimate(direction, fps)`` returning a
         :class:`~unjello.readout.ReadoutEstimate`, for ``readout="auto"`` when nothing
         states the readout.
+    size : (int, int), optional
+        The clip's width and height, to pick the camera's modes in the database.
+    identified : str, optional
+        The camera the file names (:func:`unjello.io.telemetry.camera_of`), used when
+        ``camera`` is not given.
+
+    Notes
+    -----
+    The readout, in order: the settings (command line, preset); a lens profile given
+    (``lens_profile``); a sidecar or the file's metadata (:func:`stated_readout`); the
+    camera database (:func:`unjello.cameras.match`) for the camera given or the one the
+    file names; the estimate (``readout="auto"``); 1.0. The direction: the settings,
+    else the database's sign of the readout, else top to bottom.
 
     Returns
     -------
@@ -473,11 +496,19 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
         sources["readout"] = given.get("readout", "settings")
         readout = ratio(request) if isinstance(request, Milliseconds) else float(request)
     else:
-        stated = stated_readout(path)
+        stated = (stated_readout(config.lens_profile, profile=True) if config.lens_profile
+                  else stated_readout(path))
+        found = None if stated is not None else _database(config, identified, size, fps)
         if stated is not None:
             sources["readout"] = stated.source
             readout = ratio(Milliseconds(stated.milliseconds))
             messages.append(f"readout {stated.milliseconds:g} ms from the {stated.source}")
+        elif found is not None:
+            sources["readout"] = f"camera database ({found.camera})"
+            readout = ratio(Milliseconds(min(found.readout_ms, 1000.0 / fps)))
+            messages.append(found.describe())
+            if config.direction is None and found.direction != direction:
+                direction, sources["direction"] = found.direction, sources["readout"]
         elif request == "auto" and estimate is not None:
             est = estimate(direction, fps)
             readout = float(est.readout)
@@ -495,3 +526,19 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
             readout, sources["readout"] = 1.0, "default"
     timing = SensorTiming(readout, direction, reference)  # type: ignore[arg-type]
     return ResolvedTiming(timing, fps, sources, tuple(messages))
+
+
+def _database(config: CorrectionConfig, identified: str | None,
+              size: tuple[int, int] | None, fps: float) -> CameraMatch | None:
+    """Return the camera database's match for the camera given, else the one the file names."""
+    name = config.camera or identified
+    if not name:
+        return None
+    w, h = size if size else (None, None)
+    found = match(name, w, h, fps)
+    if found is None and config.camera:
+        raise SettingsError(f"camera {config.camera!r}: the camera database has no readout "
+                            "for it (see `unjello cameras`)")
+    if found is not None and found.readout_ms * fps / 1000.0 > 1.02:
+        return None  # a profile of another frame rate, longer than this clip's frames
+    return found

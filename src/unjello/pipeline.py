@@ -25,6 +25,7 @@ from .exports import SideOutputs
 from .io.sidecars import gyro_source, read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
+from .io.telemetry import camera_of
 from .motion.dense import DenseMethod
 from .motion.gyro import GyroLog, GyroMethod
 from .motion.paper import PaperMethod
@@ -284,6 +285,8 @@ def correct_video(
         resolved = resolve_timing(
             config, path=src_p, video_fps=source.info.fps,
             motion_timing=given.timing if given is not None else None,
+            size=(source.info.width, source.info.height),
+            identified=None if config.camera or given is not None else camera_of(src_p),
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
         gyro_log = None

@@ -67,8 +67,11 @@ def _find_readout_key(obj: object, depth: int = 0) -> float | None:
     return None
 
 
-def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
+def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedReadout | None:
     """Readout time stated for a video by a sidecar file or its metadata, if any.
+
+    With ``profile``, ``path`` is a lens profile given by the user (Gyroflow's JSON):
+    its ``frame_readout_time``, or a :class:`SettingsError` saying it has none.
 
     Looked up, in order:
 
@@ -89,6 +92,17 @@ def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
     StatedReadout or None
     """
     p = Path(path)
+    if profile:
+        try:
+            value = _find_readout_key(json.loads(p.read_text()))
+        except OSError as exc:
+            raise SettingsError(f"{p}: cannot read the lens profile "
+                                f"({exc.strerror or exc})") from None
+        except ValueError:
+            raise SettingsError(f"{p}: not a lens profile (not JSON)") from None
+        if value is None:
+            raise SettingsError(f"{p}: the lens profile states no frame_readout_time")
+        return StatedReadout(value, f"lens profile {p.name}")
     for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
                  p.with_suffix(".json")):
         if side != p and side.is_file():

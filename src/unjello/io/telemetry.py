@@ -15,13 +15,14 @@ from __future__ import annotations
 import importlib.util
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..motion.gyro import GyroLog
 
-__all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available"]
+__all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available", "camera_of"]
 
 
 def telemetry_available() -> bool:
@@ -129,3 +130,33 @@ def _stabilised(parser: object) -> str:
             if str(tags.get(_EISE, "")).strip().upper() == "Y":
                 return "on"
     return ""
+
+
+def camera_of(path: str | os.PathLike) -> str | None:
+    """Return the camera a video file names (brand and model), if it names one.
+
+    From the camera metadata ``telemetry-parser`` decodes (GoPro, Sony, DJI, ...), else
+    the container's make and model tags (phones: ``com.apple.quicktime.make``/``model``,
+    Android's ``make``/``model``).
+    """
+    p = Path(path)
+    if not p.is_file():
+        return None
+    if telemetry_available():
+        import telemetry_parser
+        try:
+            parser = telemetry_parser.Parser(str(p))
+            make, model = (str(x or "").strip() for x in (parser.camera, parser.model))
+            name = model if model.lower().startswith(make.lower()) else f"{make} {model}"
+        except Exception:  # noqa: BLE001 - the vendor parsers raise anything on other files
+            name = ""
+        if name.strip():
+            return " ".join(name.split())
+    from .video import metadata_tags
+
+    tags = {k.lower(): str(v).strip() for k, v in metadata_tags(p).items()}
+    make = next((v for k, v in tags.items() if k.endswith("make") and v), "")
+    model = next((v for k, v in tags.items() if k.endswith("model") and v), "")
+    if not model:
+        return None
+    return model if model.lower().startswith(make.lower()) else f"{make} {model}".strip()

@@ -1,0 +1,202 @@
+"""A camera database: readout time, scan direction and lens of 9,000 camera modes.
+
+The table (``data/cameras.json.gz``) is built by ``scripts/camera_table.py`` from the
+Gyroflow community's lens profiles (CC0): one row per brand, model, lens or setting,
+calibrated size and frame rate, with the median of the readout times its profiles state
+(ms; negative: bottom to top), how many state one and how many of those agree within 5 %,
+and the median camera matrix and fisheye distortion. The profiles are user-contributed and
+noisy, so a match says how many profiles it rests on and how far they spread.
+
+Matching a clip (:func:`match`): the camera's rows with a readout, those of the clip's
+aspect ratio and frame rate first (a sensor mode is its aspect and rate; the output size is
+often scaled), then the frame rate alone, then the aspect alone, then any.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+
+from .errors import SettingsError
+
+__all__ = ["CameraMode", "CameraMatch", "table", "search", "match"]
+
+
+@dataclass(frozen=True)
+class CameraMode:
+    """One row of the table: a camera in one mode, summarised over its profiles."""
+
+    brand: str
+    model: str
+    mode: str
+    width: int
+    height: int
+    fps: float
+    profiles: int
+    readout_ms: float | None
+    readout_n: int
+    readout_agree: int
+    fx: float | None
+    fy: float | None
+    cx: float | None
+    cy: float | None
+    k: tuple[float, ...] | None
+
+    @property
+    def name(self) -> str:
+        """Brand and model (the model alone where it already names the brand)."""
+        return self.model if self.model.lower().startswith(self.brand.lower()) else \
+            f"{self.brand} {self.model}"
+
+
+@dataclass(frozen=True)
+class CameraMatch:
+    """What the table says of a clip's camera.
+
+    Attributes
+    ----------
+    camera : str
+        The camera matched.
+    readout_ms : float
+        Median readout of the modes used (ms, positive).
+    direction : str
+        ``top-bottom``, or ``bottom-top`` where the profiles state negative readouts.
+    profiles, agree : int
+        Profiles stating a readout for those modes, and how many within 5 % of it.
+    spread : tuple of float
+        Smallest and largest readout they state (ms).
+    modes : str
+        Which modes were used (``16:9 at 29.97 fps``, ``any mode``, ...).
+    focal : float or None
+        Focal length in pixels of the clip's width (from modes of its aspect ratio).
+    k : tuple of float or None
+        Fisheye distortion coefficients of those modes.
+    """
+
+    camera: str
+    readout_ms: float
+    direction: str
+    profiles: int
+    agree: int
+    spread: tuple[float, float]
+    modes: str
+    focal: float | None = None
+    k: tuple[float, ...] | None = None
+
+    def describe(self) -> str:
+        """One line: the readout, and what it rests on."""
+        lo, hi = self.spread
+        rng = f"{lo:g}-{hi:g} ms" if hi - lo > 0.01 else f"{lo:g} ms"
+        return (f"camera database: {self.camera}, {self.modes}: readout {self.readout_ms:g} ms "
+                f"({self.agree} of {self.profiles} profile(s) agree; {rng})")
+
+
+@lru_cache(maxsize=1)
+def table() -> tuple[CameraMode, ...]:
+    """Return every row of the packaged table."""
+    raw = resources.files("unjello").joinpath("data", "cameras.json.gz").read_bytes()
+    doc = json.loads(gzip.decompress(raw))
+    cols = doc["columns"]
+    out = []
+    for row in doc["rows"]:
+        r = dict(zip(cols, row, strict=True))
+        out.append(CameraMode(r["brand"], r["model"], r["mode"], int(r["w"]), int(r["h"]),
+                              float(r["fps"]), int(r["profiles"]), r["readout_ms"],
+                              int(r["readout_n"]), int(r["readout_agree"]), r["fx"], r["fy"],
+                              r["cx"], r["cy"], tuple(r["k"]) if r["k"] else None))
+    return tuple(out)
+
+
+def _norm(text: str) -> str:
+    return " ".join(text.lower().replace("_", " ").split())
+
+
+def search(text: str = "") -> list[CameraMode]:
+    """Return the rows whose brand, model or mode contain every word of ``text``."""
+    words = _norm(text).split()
+    return [m for m in table()
+            if all(w in _norm(f"{m.brand} {m.model} {m.mode}") for w in words)]
+
+
+def _camera_rows(camera: str) -> list[CameraMode]:
+    """Rows of one camera named by the user or by its file (brand and model)."""
+    want = _norm(camera)
+    rows = [m for m in table() if want in (_norm(m.name), _norm(f"{m.brand} {m.model}"),
+                                           _norm(m.model))]
+    if rows:
+        return rows
+    partial = [m for m in table() if want in _norm(f"{m.brand} {m.model}")]
+    names = sorted({m.name for m in partial})
+    if len(names) > 1:
+        shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
+        raise SettingsError(f"camera {camera!r} matches {len(names)} cameras ({shown}); "
+                            "name one (see `unjello cameras`)")
+    return partial
+
+
+def match(camera: str, width: int | None = None, height: int | None = None,
+          fps: float | None = None) -> CameraMatch | None:
+    """Return what the table says of a clip's camera (the module notes give the order).
+
+    Parameters
+    ----------
+    camera : str
+        Brand and model (``GoPro HERO5 Black``), or the model alone where it is unique.
+    width, height : int, optional
+        The clip's size (its aspect ratio picks the modes).
+    fps : float, optional
+        The clip's frame rate.
+
+    Returns
+    -------
+    CameraMatch or None
+        None when the camera is not in the table or none of its profiles states a
+        readout.
+
+    Raises
+    ------
+    SettingsError
+        If ``camera`` names several cameras.
+    """
+    rows = _camera_rows(camera)
+    timed = [m for m in rows if m.readout_ms]
+    if not timed:
+        return None
+
+    ratio = width / height if width and height else 0.0
+    rate = float(fps or 0.0)
+
+    def same_aspect(m: CameraMode) -> bool:
+        return ratio > 0 and abs(m.width / m.height - ratio) < 0.01 * ratio
+
+    def same_fps(m: CameraMode) -> bool:
+        return rate > 0 and abs(m.fps - rate) < 0.01 * rate
+
+    aspect = f"{ratio:.2f}:1" if ratio else ""
+    tiers = [(lambda m: same_aspect(m) and same_fps(m), f"its {aspect} modes at {fps:g} fps"
+              if fps else ""),
+             (same_fps, f"its modes at {fps:g} fps" if fps else ""),
+             (same_aspect, f"its {aspect} modes"),
+             (lambda m: True, "any of its modes")]
+    picked, label = timed, tiers[-1][1]
+    for keep, label in tiers:  # noqa: B007 - the tier that picked is the one said
+        picked = [m for m in timed if keep(m)]
+        if picked:
+            break
+    signed = np.concatenate([np.full(m.readout_n, m.readout_ms) for m in picked])
+    values = np.abs(signed)
+    med = float(np.median(values))
+    agree = int(np.sum(np.abs(values - med) <= 0.05 * med))
+    upward = int(np.sum(signed < 0)) > signed.size / 2
+    lens = [m for m in rows if m.fx and same_aspect(m)] if width else []
+    focal = (float(np.median([float(m.fx or 0.0) * float(width or 0) / m.width for m in lens]))
+             if lens else None)
+    ks = [m.k for m in lens if m.k]
+    return CameraMatch(picked[0].name, round(med, 4), "bottom-top" if upward else "top-bottom",
+                       int(values.size), agree, (float(values.min()), float(values.max())), label,
+                       focal, tuple(np.median(ks, axis=0).tolist()) if ks else None)

@@ -1,0 +1,116 @@
+"""The camera database: the packaged table, search, matching, and the readout it gives."""
+
+import gzip
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+from unjello import cameras
+from unjello.config import CorrectionConfig, resolve_timing
+from unjello.errors import SettingsError
+
+from .clips import make_clip
+from .runner import clean_failure, run
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_table_says_where_it_comes_from():
+    raw = (ROOT / "src" / "unjello" / "data" / "cameras.json.gz").read_bytes()
+    doc = json.loads(gzip.decompress(raw))
+    assert doc["licence"].startswith("CC0") and "lens_profiles" in doc["source"]
+    assert len(cameras.table()) == len(doc["rows"]) > 9000
+    assert sum(1 for m in cameras.table() if m.readout_ms) > 1000
+
+
+def test_the_packaged_table_is_what_the_script_builds(shared_data, tmp_path):
+    source = shared_data / "lens_profiles" / "gyroflow_lens_profiles.jsonl.gz"
+    spec = importlib.util.spec_from_file_location("camera_table",
+                                                  ROOT / "scripts" / "camera_table.py")
+    script = importlib.util.module_from_spec(spec)
+    sys.modules["camera_table"] = script
+    spec.loader.exec_module(script)
+    built = script.build(source)
+    packaged = json.loads(gzip.decompress(
+        (ROOT / "src" / "unjello" / "data" / "cameras.json.gz").read_bytes()))
+    assert built == packaged
+
+
+def test_search_and_the_noisy_hero5():
+    """The HERO5 Black's 16:9 30 fps profiles disagree (16.7, 26.7, 33.4 ms): the match
+    takes their median and says how few agree."""
+    modes = cameras.search("hero5 black wide")
+    assert modes and all("HERO5 Black" in m.model and "Wide" in m.mode for m in modes)
+    found = cameras.match("GoPro HERO5 Black", 854, 480, 29.97)
+    assert found.camera == "GoPro HERO5 Black" and found.direction == "top-bottom"
+    assert found.profiles == 4 and found.agree == 0
+    assert found.spread == pytest.approx((16.68, 33.3667), abs=1e-3)
+    assert 16.68 < found.readout_ms < 33.37 and "1.78:1 modes at 29.97 fps" in found.modes
+    assert 300 < found.focal < 800  # a wide lens on an 854 px wide picture
+    # 2.7K 60 fps: one profile, at that rate.
+    assert cameras.match("HERO5 Black", 2704, 2028, 59.94).readout_ms == pytest.approx(8.3417)
+    assert cameras.match("No Such Camera 3000") is None
+
+
+def test_a_name_of_several_cameras_is_refused():
+    with pytest.raises(SettingsError, match="matches .* cameras"):
+        cameras.match("iPhone 1")
+
+
+def test_the_readout_comes_from_the_database(tmp_path):
+    clip = tmp_path / "c.mp4"
+    clip.write_bytes(b"")
+    cfg = CorrectionConfig(camera="GoPro HERO5 Black")
+    res = resolve_timing(cfg, path=clip, video_fps=29.97, size=(854, 480))
+    assert res.sources["readout"] == "camera database (GoPro HERO5 Black)"
+    assert res.timing.readout == pytest.approx(cameras.match(
+        "GoPro HERO5 Black", 854, 480, 29.97).readout_ms * 29.97e-3, abs=1e-6)
+    assert any(m.startswith("camera database: GoPro HERO5 Black") for m in res.messages)
+    # The camera the file names, when none is given; the command line wins over both.
+    res = resolve_timing(CorrectionConfig(), path=clip, video_fps=29.97, size=(854, 480),
+                         identified="GoPro HERO5 Black")
+    assert res.sources["readout"].startswith("camera database")
+    res = resolve_timing(CorrectionConfig(readout=0.5, camera="GoPro HERO5 Black"),
+                         path=clip, video_fps=29.97, size=(854, 480))
+    assert res.timing.readout == 0.5
+    with pytest.raises(SettingsError, match="no readout"):
+        resolve_timing(CorrectionConfig(camera="No Such Camera 3000"), path=clip,
+                       video_fps=30.0)
+
+
+def test_a_lens_profile_gives_its_readout(tmp_path, scene):
+    clip = tmp_path / "c.mp4"
+    make_clip(clip, scene, n=3)
+    profile = tmp_path / "lens.json"
+    profile.write_text(json.dumps({"name": "x", "frame_readout_time": 15.0,
+                                   "fisheye_params": {"camera_matrix": [[1, 0, 0]] * 3}}))
+    res = run("correct", clip, "-o", tmp_path / "out.mp4", "--lens-profile", profile, "--json")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary["sources"]["readout"] == "lens profile lens.json"
+    assert summary["readout"] == pytest.approx(0.45)
+    (tmp_path / "empty.json").write_text("{}")
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "o2.mp4", "--lens-profile",
+                             tmp_path / "empty.json"))
+    assert "states no frame_readout_time" in line
+
+
+def test_the_cameras_command():
+    res = run("cameras", "hero5", "black")
+    assert res.returncode == 0 and "HERO5 Black" in res.stdout and "8.3417 ms" in res.stdout
+    res = run("cameras", "hero5", "black", "--json")
+    rows = [json.loads(line) for line in res.stdout.splitlines()]
+    assert rows and all(r["readout_ms"] for r in rows)
+    assert "no camera" in clean_failure(run("cameras", "nonexistentcam"))
+
+
+def test_a_gopro_file_names_its_camera(shared_data):
+    from unjello.io.telemetry import camera_of
+
+    pytest.importorskip("telemetry_parser", reason="telemetry-parser is not installed")
+    folder = shared_data / "sequences" / "gopro_gpmf"
+    assert camera_of(folder / "karma.mp4") == "GoPro HERO5 Black"
+    assert camera_of(folder / "max-heromode.mp4") == "GoPro Max"
