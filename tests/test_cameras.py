@@ -93,9 +93,14 @@ def test_a_lens_profile_gives_its_readout(tmp_path, scene):
     assert summary["sources"]["readout"] == "lens profile lens.json"
     assert summary["readout"] == pytest.approx(0.45)
     (tmp_path / "empty.json").write_text("{}")
-    line = clean_failure(run("correct", clip, "-o", tmp_path / "o2.mp4", "--lens-profile",
-                             tmp_path / "empty.json"))
-    assert "states no frame_readout_time" in line
+    res = run("correct", clip, "-o", tmp_path / "o2.mp4", "--lens-profile",
+              tmp_path / "empty.json", "--json")
+    assert res.returncode == 0, res.stderr
+    assert "states no frame_readout_time" in " ".join(json.loads(res.stdout)["messages"])
+    (tmp_path / "bad.json").write_text("{not json")
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "o3.mp4", "--lens-profile",
+                             tmp_path / "bad.json"))
+    assert "not a lens profile" in line
 
 
 def test_the_cameras_command():

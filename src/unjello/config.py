@@ -318,6 +318,22 @@ def _vibration(value: Any) -> Any:
     return {True: "on", False: "off"}.get(value, value) if isinstance(value, bool) else value
 
 
+def _coefficients(value: Any) -> Any:
+    """``"k1,k2,k3,k4"`` (or a list of four numbers) -> a tuple of floats."""
+    if value is None or isinstance(value, tuple):
+        return value
+    parts = value.split(",") if isinstance(value, str) else list(value)
+    try:
+        return tuple(float(v) for v in parts)
+    except (TypeError, ValueError):
+        raise SettingsError(f"distortion must be four numbers k1,k2,k3,k4, got {value!r}"
+                            ) from None
+
+
+def _show_coefficients(value: Any) -> Any:
+    return None if value is None else ",".join(f"{v:g}" for v in value)
+
+
 def _ms_to_s(value: Any) -> Any:
     return None if value is None else value / 1e3
 
@@ -376,7 +392,12 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "default: found from the footage's motion.", kind="float", to_field=_ms_to_s,
            from_field=_s_to_ms, per_clip=True),
     Option("focal", "gyro.focal", "Focal length in pixels of the frame (gyro method); "
-           "default: found from the footage's motion.", kind="float", per_clip=True),
+           "default: the lens profile's or the camera database's, else found from the "
+           "footage's motion.", kind="float", per_clip=True),
+    Option("distortion", "gyro.distortion", "Fisheye lens distortion k1,k2,k3,k4 (OpenCV's "
+           "model, as in Gyroflow's lens profiles) for the gyro method; default: the lens "
+           "profile's or the camera database's, else none (a pinhole).", per_clip=True,
+           to_field=_coefficients, from_field=_show_coefficients),
     Option("codec", "encode.codec", "Encoder of the output video."),
     Option("crf", "encode.crf", "Encoder quality (0-51, lower is better).", kind="int"),
     Option("x264_preset", "encode.preset", "Encoder speed/size preset (ultrafast ... "
@@ -496,8 +517,13 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
         sources["readout"] = given.get("readout", "settings")
         readout = ratio(request) if isinstance(request, Milliseconds) else float(request)
     else:
-        stated = (stated_readout(config.lens_profile, profile=True) if config.lens_profile
-                  else stated_readout(path))
+        stated = None
+        if config.lens_profile:
+            stated = stated_readout(config.lens_profile, profile=True)
+            if stated is None:
+                messages.append(f"the lens profile {Path(config.lens_profile).name} states no "
+                                "frame_readout_time")
+        stated = stated or stated_readout(path)
         found = None if stated is not None else _database(config, identified, size, fps)
         if stated is not None:
             sources["readout"] = stated.source

@@ -19,10 +19,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from .cameras import match
 from .config import CorrectionConfig, ResolvedTiming, resolve_timing
 from .errors import InputError
 from .exports import SideOutputs
-from .io.sidecars import gyro_source, read_gyro
+from .io.sidecars import gyro_source, profile_lens, read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.telemetry import camera_of
@@ -282,18 +283,24 @@ def correct_video(
         check_new(extra, overwrite)
     given = Trajectory.load(motion_in) if motion_in is not None else None
     with FrameSource(src_p) as source:
+        gyro = config.method == "gyro" and given is None
+        identified = (camera_of(src_p) if given is None and not config.camera
+                      and not config.lens_profile
+                      and (config.readout in (None, "auto") or gyro) else None)
         resolved = resolve_timing(
             config, path=src_p, video_fps=source.info.fps,
             motion_timing=given.timing if given is not None else None,
-            size=(source.info.width, source.info.height),
-            identified=None if config.camera or given is not None else camera_of(src_p),
+            size=(source.info.width, source.info.height), identified=identified,
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
         gyro_log = None
-        if config.method == "gyro" and given is None:
+        if gyro:
             gyro_log, said = gyro_source(src_p, config.gyro)
-            resolved = dataclasses.replace(resolved, sources={**resolved.sources, "gyro": said},
-                               messages=(*resolved.messages, f"gyro: {said}"))
+            config, lens = _with_lens(config, config.camera or identified,
+                                      (source.info.width, source.info.height), resolved.fps)
+            resolved = dataclasses.replace(
+                resolved, sources={**resolved.sources, "gyro": said},
+                messages=(*resolved.messages, f"gyro: {said}", *lens))
         for message in resolved.messages:
             if log:
                 log(message)
@@ -308,6 +315,33 @@ def correct_video(
     if log and len(traj) == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
     return traj
+
+
+def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, int],
+               fps: float) -> tuple[CorrectionConfig, tuple[str, ...]]:
+    """Give the gyro method the lens a profile or the camera database knows.
+
+    Only what is not given: ``focal`` and ``distortion`` of :class:`GyroConfig`.
+    """
+    g = config.gyro
+    if g.focal is not None and g.distortion is not None:
+        return config, ()
+    lens, source = None, ""
+    if config.lens_profile:
+        lens, source = profile_lens(config.lens_profile, size[0]), \
+            f"lens profile {Path(config.lens_profile).name}"
+    elif camera:
+        found = match(camera, size[0], size[1], fps)
+        if found is not None and found.focal is not None and found.k is not None:
+            lens, source = (found.focal, found.k), f"camera database ({found.camera})"
+    if lens is None:
+        return config, ()
+    focal = g.focal if g.focal is not None else lens[0]
+    coef = g.distortion if g.distortion is not None else tuple(lens[1])
+    new = dataclasses.replace(config, gyro=dataclasses.replace(
+        g, focal=focal, distortion=coef))  # type: ignore[arg-type]
+    return new, (f"lens from the {source}: focal {focal:.0f} px, fisheye k "
+                 + ", ".join(f"{v:.3g}" for v in coef),)
 
 
 def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: SideOutputs,

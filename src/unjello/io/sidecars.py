@@ -71,7 +71,8 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
     """Readout time stated for a video by a sidecar file or its metadata, if any.
 
     With ``profile``, ``path`` is a lens profile given by the user (Gyroflow's JSON):
-    its ``frame_readout_time``, or a :class:`SettingsError` saying it has none.
+    its ``frame_readout_time`` (None if it states none; a :class:`SettingsError` if it
+    cannot be read).
 
     Looked up, in order:
 
@@ -100,9 +101,7 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
                                 f"({exc.strerror or exc})") from None
         except ValueError:
             raise SettingsError(f"{p}: not a lens profile (not JSON)") from None
-        if value is None:
-            raise SettingsError(f"{p}: the lens profile states no frame_readout_time")
-        return StatedReadout(value, f"lens profile {p.name}")
+        return None if value is None else StatedReadout(value, f"lens profile {p.name}")
     for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
                  p.with_suffix(".json")):
         if side != p and side.is_file():
@@ -131,6 +130,28 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
     if value is not None:
         return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
     return None
+
+
+def profile_lens(path: str | os.PathLike, width: int) -> tuple[float, tuple[float, ...]] | None:
+    """Return a Gyroflow lens profile's focal length (at ``width`` px) and fisheye ``k``.
+
+    None when the profile has no fisheye camera matrix and four coefficients.
+    """
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, ValueError):
+        raise SettingsError(f"{p}: cannot read the lens profile") from None
+    fisheye = doc.get("fisheye_params") or {} if isinstance(doc, dict) else {}
+    matrix, k = fisheye.get("camera_matrix"), fisheye.get("distortion_coeffs")
+    calib_w = ((doc.get("calib_dimension") or {}).get("w") if isinstance(doc, dict) else None)
+    try:
+        fx = float(matrix[0][0])  # type: ignore[index]
+        coef = tuple(float(v) for v in k)  # type: ignore[union-attr]
+        scale = width / float(calib_w) if calib_w else 1.0
+    except (TypeError, ValueError, IndexError):
+        return None
+    return (fx * scale, coef) if len(coef) == 4 and fx > 0 else None
 
 
 def find_gyro_log(src: str | os.PathLike) -> Path:

@@ -141,6 +141,11 @@ class GyroConfig:
     focal : float, optional
         Focal length in pixels of the full frame; found by :func:`calibrate` if not
         given.
+    distortion : tuple of 4 float, optional
+        Fisheye distortion ``k1 .. k4`` of the lens (OpenCV's fisheye model, Gyroflow's
+        lens profiles): the rotation is then applied to the undistorted rays and the
+        result distorted back, so straight lines stay as the lens draws them. None: a
+        pinhole.
     sync_frames : int
         Frames at the start of the clip whose motion calibrates the log (they are held
         until then); at least 30 tell a log of the clip from another one.
@@ -152,6 +157,7 @@ class GyroConfig:
     axes: str = "auto"
     offset: float | None = None
     focal: float | None = None
+    distortion: tuple[float, float, float, float] | None = None
     sync_frames: int = 60
 
     def __post_init__(self) -> None:
@@ -159,6 +165,12 @@ class GyroConfig:
             axes_matrix(self.axes)
         if self.focal is not None and not self.focal > 0:
             raise SettingsError(f"focal length must be positive, got {self.focal}")
+        if self.distortion is not None:
+            k = tuple(self.distortion)
+            if len(k) != 4 or not all(np.isfinite(v) for v in k):
+                raise SettingsError(f"distortion must be four numbers k1,k2,k3,k4, got "
+                                    f"{self.distortion!r}")
+            object.__setattr__(self, "distortion", tuple(float(v) for v in k))
         if self.sync_frames < 3:
             raise SettingsError("gyro calibration needs at least 3 frames")
 
@@ -177,18 +189,23 @@ class GyroCalibration:
         Focal length, pixels of the full frame.
     agreement : float
         Share of the measured row motion the gyro explains (1: all; NaN: not measured).
+    distortion : tuple of 4 float, optional
+        Fisheye ``k1 .. k4`` (:class:`GyroConfig`); None: a pinhole.
     """
 
     axes: np.ndarray
     offset: float
     focal: float
     agreement: float = float("nan")
+    distortion: tuple[float, float, float, float] | None = None
 
     def describe(self) -> str:
         """One line: axes, offset, focal length and agreement."""
         ms = round(1000 * self.offset, 1) + 0.0  # no "-0.0"
         text = (f"gyro axes {_axes_spec(self.axes)}, offset {ms:.1f} ms, "
                 f"focal {self.focal:.0f} px")
+        if self.distortion is not None:
+            text += ", fisheye lens k " + ", ".join(f"{v:.3g}" for v in self.distortion)
         if np.isfinite(self.agreement):
             text += f", explains {100 * self.agreement:.0f}% of the row motion"
         return text
@@ -358,7 +375,7 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
             "its gyro_layout= and gyro_units=; a camera that hardly rotates (on a gimbal, "
             "its picture moving with the vehicle's travel) needs the dense method")
     return GyroCalibration(axes=result[1], offset=result[0], focal=result[2],
-                           agreement=result[3])
+                           agreement=result[3], distortion=config.distortion)
 
 
 def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: np.ndarray,
@@ -366,16 +383,28 @@ def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: 
     """Where pixels ``(x, row y)`` seen at ``t_from[row]`` are seen at ``t_to[row]``.
 
     One homography ``K R K^-1`` per row, ``R`` the rotation by ``M (Theta(t_to) -
-    Theta(t_from))``. Returns ``(len(y), len(x), 2)``.
+    Theta(t_from))``; through a fisheye lens (``cal.distortion``) the rotation acts on the
+    undistorted rays, ``distort(R undistort(p))``. Returns ``(len(y), len(x), 2)``.
     """
     h, w = size
     f = cal.focal
     k = np.array([[f, 0, (w - 1) / 2.0], [0, f, (h - 1) / 2.0], [0, 0, 1.0]])
     phi = (log.theta(t_to) - log.theta(t_from)) @ cal.axes.T
-    hom = k @ Rotation.from_rotvec(phi).as_matrix() @ np.linalg.inv(k)  # (rows, 3, 3)
+    rot = Rotation.from_rotvec(phi).as_matrix()  # (rows, 3, 3)
     pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
-    q = pts @ hom.transpose(0, 2, 1)  # each row's points through its homography
-    return q[..., :2] / q[..., 2:3]
+    if cal.distortion is None:
+        q = pts @ (k @ rot @ np.linalg.inv(k)).transpose(0, 2, 1)
+        return q[..., :2] / q[..., 2:3]
+    coef = np.asarray(cal.distortion, dtype=np.float64)
+    # (OpenCV reads the buffer: a strided view would be read as if it were contiguous)
+    rays = cv2.fisheye.undistortPoints(np.ascontiguousarray(pts[..., :2]).reshape(-1, 1, 2),
+                                       k, coef)
+    rays = np.concatenate([rays.reshape(*pts.shape[:2], 2), np.ones((*pts.shape[:2], 1))],
+                          axis=-1)
+    q = rays @ rot.transpose(0, 2, 1)
+    q = q[..., :2] / np.maximum(q[..., 2:3], 1e-6)  # (a ray turned behind: far off anyway)
+    out = cv2.fisheye.distortPoints(np.ascontiguousarray(q).reshape(-1, 1, 2), k, coef)
+    return out.reshape(*pts.shape[:2], 2)
 
 
 def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: float,
@@ -466,7 +495,7 @@ class GyroMethod:
         self.calibration: GyroCalibration | None = None
         if config.axes != "auto" and config.offset is not None and config.focal is not None:
             self.calibration = GyroCalibration(axes_matrix(config.axes), config.offset,
-                                               config.focal)
+                                               config.focal, distortion=config.distortion)
         self._starts: list[float] = []
         self._small: list[np.ndarray] = []
         self._rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
