@@ -14,8 +14,9 @@ within a frame), ``M`` the mapping from the gyro's axes to the camera's and ``K`
 pinhole intrinsics (focal ``f``, centre of the frame). The per-pixel displacement
 ``s - p`` is what the dense warp applies (:func:`unjello.warp.field_maps`): one
 homography per scanline, which handles roll and the keystone of pitch and yaw, not
-only the translation of the paper's model. Lens distortion and camera translation
-(parallax) are not modelled.
+only the translation of the paper's model. Through a fisheye lens
+(``GyroConfig.distortion``) the rotation acts on the undistorted rays,
+``p = distort(R undistort(s))``. Camera translation (parallax) is not modelled.
 
 What a log rarely states -- the offset between its clock and the video's, the axes, the
 focal length -- is found from the footage (:func:`calibrate`): DIS optical flow of the
