@@ -299,3 +299,17 @@ def test_the_paper_method_follows_two_abrupt_changes(scene):
     unc = np.mean([displacement_error(None, s.motion) for s in sim])
     assert err < 0.15 * unc
     _no_frame_worse(out, sim)
+
+
+def test_the_paper_method_follows_a_720p_pan_from_rest(scene):
+    """1280x720, 35 px right and 17 down a frame from still, readout 0.6: the streaks of
+    the issue (displacements of 2,196 px) are gone. Measured (benchmarks/paper.py, 10
+    frames): 0.011x."""
+    timing = SensorTiming(0.6)
+    sim = list(simulate(scene, Motion.from_rest(35.0, 17.0), timing, 8, size=(1280, 720)))
+    out, traj = correct_frames([s.rolling for s in sim], timing,
+                               config=CorrectionConfig(method="paper"))
+    err = np.mean([displacement_error(f, s.motion) for f, s in zip(traj.frames, sim, strict=True)])
+    assert err < 0.05 * np.mean([displacement_error(None, s.motion) for s in sim])
+    assert max(np.abs(f.displacement).max() for f in traj.frames) < 40
+    _no_frame_worse(out, sim)
