@@ -119,3 +119,15 @@ def test_a_gopro_file_names_its_camera(shared_data):
     folder = shared_data / "sequences" / "gopro_gpmf"
     assert camera_of(folder / "karma.mp4") == "GoPro HERO5 Black"
     assert camera_of(folder / "max-heromode.mp4") == "GoPro Max"
+
+
+def test_undistort_takes_the_lens_from_the_database(tmp_path, scene):
+    clip = tmp_path / "c.mp4"
+    make_clip(clip, scene, n=3)
+    res = run("correct", clip, "-o", tmp_path / "out.mp4", "--camera", "GoPro HERO5 Black",
+              "--undistort", "--json")
+    assert res.returncode == 0, res.stderr
+    said = " ".join(json.loads(res.stdout)["messages"])
+    assert "lens from the camera database (GoPro HERO5 Black): focal" in said
+    line = clean_failure(run("correct", clip, "-o", tmp_path / "o2.mp4", "--undistort"))
+    assert "undistort needs the lens" in line

@@ -101,6 +101,7 @@ class CorrectionConfig:
     fps: float | None = None
     camera: str | None = None
     lens_profile: str | None = None
+    undistort: bool = False
     warp: str = "remap"
     fill: str = "nearest"
     paper: PaperConfig = field(default_factory=PaperConfig)
@@ -360,7 +361,12 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "Black'): its readout and scan direction from the camera database, for the "
            "clip's size and frame rate. Default: the camera the file names."),
     Option("lens_profile", "lens_profile", "A Gyroflow lens profile (JSON): its "
-           "frame_readout_time.", kind="path", per_clip=True),
+           "frame_readout_time, and its lens for the gyro method and for undistorting.",
+           kind="path", per_clip=True),
+    Option("undistort", "undistort", "Remove the fisheye lens's curvature from the output "
+           "(a pinhole picture of the same focal length and size); needs the lens: a lens "
+           "profile, a camera the database has one for, or the focal length and "
+           "distortion.", kind="flag"),
     Option("warp", "warp", "Backward remap (fast) or the paper's forward splat.",
            choices=WARPS),
     Option("fill", "fill", "What fills the area no scanline reaches.", choices=FILLS),

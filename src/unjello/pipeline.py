@@ -21,7 +21,7 @@ import numpy as np
 
 from .cameras import match
 from .config import CorrectionConfig, ResolvedTiming, resolve_timing
-from .errors import InputError
+from .errors import InputError, SettingsError
 from .exports import SideOutputs
 from .io.sidecars import gyro_source, profile_lens, read_gyro
 from .io.sink import PictureSink, check_new, check_paths
@@ -102,7 +102,14 @@ class Corrector:
             self._method = GyroMethod(timing, gyro_log, config.gyro, fps)
         else:
             self._method = DenseMethod(timing, config.dense)
-        self.warp = PictureWarper(timing, config.warp, config.fill)
+        lens = None
+        if config.undistort:
+            if config.gyro.focal is None or config.gyro.distortion is None:
+                raise SettingsError("undistort needs the lens: lens_profile=, camera= (a "
+                                    "camera the database has a lens for), or focal= with "
+                                    "distortion=")
+            lens = (config.gyro.focal, config.gyro.distortion)
+        self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
         self._held: deque[list[np.ndarray]] = deque()
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
 
@@ -286,7 +293,8 @@ def correct_video(
         gyro = config.method == "gyro" and given is None
         identified = (camera_of(src_p) if given is None and not config.camera
                       and not config.lens_profile
-                      and (config.readout in (None, "auto") or gyro) else None)
+                      and (config.readout in (None, "auto") or gyro or config.undistort)
+                      else None)
         resolved = resolve_timing(
             config, path=src_p, video_fps=source.info.fps,
             motion_timing=given.timing if given is not None else None,
@@ -294,13 +302,15 @@ def correct_video(
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
         gyro_log = None
-        if gyro:
-            gyro_log, said = gyro_source(src_p, config.gyro)
+        if gyro or config.undistort:
             config, lens = _with_lens(config, config.camera or identified,
                                       (source.info.width, source.info.height), resolved.fps)
+            resolved = dataclasses.replace(resolved, messages=(*resolved.messages, *lens))
+        if gyro:
+            gyro_log, said = gyro_source(src_p, config.gyro)
             resolved = dataclasses.replace(
                 resolved, sources={**resolved.sources, "gyro": said},
-                messages=(*resolved.messages, f"gyro: {said}", *lens))
+                messages=(*resolved.messages, f"gyro: {said}"))
         for message in resolved.messages:
             if log:
                 log(message)

@@ -22,6 +22,7 @@ scanline move together (:func:`~unjello.trajectory.scanline_displacement`). Two 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal
 
 import cv2
@@ -446,13 +447,18 @@ class PictureWarper:
         Its scan direction turns the planes.
     warp : {'remap', 'splat'}
     fill : {'nearest', 'black'}
+    undistort : (float, tuple of 4 float), optional
+        A fisheye lens (focal length in pixels of the first plane, ``k1 .. k4``) whose
+        curvature is then taken out of every corrected plane (:func:`undistort_maps`).
     """
 
-    def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest"
-                 ) -> None:
+    def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest",
+                 undistort: tuple[float, tuple[float, ...]] | None = None) -> None:
         self.direction = timing.direction
         self.warp, self.fill = warp, fill
+        self.undistort = undistort
         self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._lens_maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
 
     def __call__(self, planes: list[np.ndarray], motion: FrameMotion,
                  around: dict[int, list[np.ndarray] | None] | None = None
@@ -503,14 +509,45 @@ class PictureWarper:
                             sized[(ph, pw)], [flow for _, flow in sources], maps)
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
-            out.append(from_top_bottom(res, d))
+            res = from_top_bottom(res, d)
+            if self.undistort is not None:
+                res = self._undistorted(res, planes[0].shape[1])
+            out.append(res)
         return out
+
+    def _undistorted(self, plane: np.ndarray, width: int) -> np.ndarray:
+        """Return the plane without its lens's curvature (maps cached per plane size)."""
+        assert self.undistort is not None
+        ph, pw = plane.shape[:2]
+        if (ph, pw) not in self._lens_maps:
+            focal, k = self.undistort
+            self._lens_maps[(ph, pw)] = undistort_maps((ph, pw), focal * pw / width, k)
+        return apply_maps(plane, self._lens_maps[(ph, pw)])
 
     def _buffer(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
         """Map buffers for planes of ``h x w``, reused from frame to frame."""
         if (h, w) not in self._buffers:
             self._buffers[(h, w)] = (np.empty((h, w), np.float32), np.empty((h, w), np.float32))
         return self._buffers[(h, w)]
+
+
+def undistort_maps(size: tuple[int, int], focal: float, k: Sequence[float]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps from a pinhole picture to the fisheye picture it is taken from.
+
+    Output pixel ``o`` of an ``h x w`` picture with focal length ``focal`` and its centre
+    in the middle is read at ``distort(K^-1 o)`` (OpenCV's fisheye model, ``k1 .. k4``).
+    A fisheye sees more than the pinhole of its focal length, so every output pixel has
+    a source; the edge is repeated where one would not (the planes may be chroma).
+    """
+    h, w = size
+    cam = np.array([[focal, 0, (w - 1) / 2.0], [0, focal, (h - 1) / 2.0], [0, 0, 1.0]])
+    gx, gy = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    rays = np.stack([(gx - cam[0, 2]) / focal, (gy - cam[1, 2]) / focal], axis=-1)
+    src = cv2.fisheye.distortPoints(np.ascontiguousarray(rays).reshape(-1, 1, 2), cam,
+                                    np.asarray(k, dtype=np.float64))
+    src = src.reshape(h, w, 2).astype(np.float32)
+    return np.ascontiguousarray(src[..., 0]), np.ascontiguousarray(src[..., 1])
 
 
 def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:
