@@ -89,3 +89,24 @@ def test_gopro_files(shared_data, tmp_path):
                              "--method", "gyro", "-q"))
     assert "does not explain" in line and "gimbal" in line
     assert not (tmp_path / "karma.mp4").exists() and not (tmp_path / "max.mp4").exists()
+
+
+def test_a_parser_panic_is_no_traceback():
+    """telemetry-parser's Rust panics reach Python as a BaseException (pyo3's
+    PanicException); reading a file must survive them, and let an interrupt through."""
+    from unjello.io.telemetry import vendor_call
+
+    class Panic(BaseException):  # what pyo3 raises
+        pass
+
+    def boom():
+        raise Panic("called `Option::unwrap()` on a `None` value")
+
+    assert vendor_call(boom, "fallback") == "fallback"
+    assert vendor_call(lambda: 3, None) == 3
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        vendor_call(interrupted, None)

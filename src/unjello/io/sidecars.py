@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..motion.gyro import GyroConfig, GyroLog
-from .telemetry import embedded_gyro, telemetry_available
+from .telemetry import embedded_gyro, telemetry_available, vendor_call
 
 __all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "gyro_source", "read_gyro",
            "write_gyro"]
@@ -122,11 +122,10 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
         import telemetry_parser
     except ImportError:
         return None
-    try:
-        tp = telemetry_parser.Parser(str(p))
-        value = _find_readout_key(tp.telemetry(human_readable=True))
-    except Exception:  # noqa: BLE001 - vendor parsers fail on many files; then nothing
+    tp = vendor_call(lambda: telemetry_parser.Parser(str(p)), None)
+    if tp is None:
         return None
+    value = _find_readout_key(vendor_call(lambda: tp.telemetry(human_readable=True), None))
     if value is not None:
         return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
     return None

@@ -14,15 +14,35 @@ from __future__ import annotations
 
 import importlib.util
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
 from ..errors import InputError
 from ..motion.gyro import GyroLog
 
-__all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available", "camera_of"]
+__all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available", "camera_of",
+           "vendor_call"]
+
+T = TypeVar("T")
+
+
+def vendor_call(call: Callable[[], T], default: T) -> T:
+    """Return ``call()``, or ``default`` when telemetry-parser fails on the file.
+
+    Its vendor parsers raise anything on files they do not know, and a Rust panic comes
+    out as pyo3's ``PanicException``, a BaseException that ``except Exception`` lets
+    through; only an interrupt or an exit goes on up.
+    """
+    try:
+        return call()
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except BaseException:  # noqa: BLE001 - see above
+        return default
 
 
 def telemetry_available() -> bool:
@@ -89,10 +109,9 @@ def embedded_gyro(path: str | os.PathLike) -> EmbeddedGyro | None:
         import telemetry_parser
     except ImportError:
         return None
-    try:
-        parser = telemetry_parser.Parser(str(path))
-        samples = parser.normalized_imu()
-    except Exception:  # noqa: BLE001 - the vendor parsers raise anything on other files
+    parser = vendor_call(lambda: telemetry_parser.Parser(str(path)), None)
+    samples = vendor_call(parser.normalized_imu, None) if parser is not None else None
+    if parser is None or samples is None:
         return None
     rows = [(s["timestamp_ms"], *s["gyro"]) for s in samples or ()
             if s.get("gyro") is not None and s.get("timestamp_ms") is not None]
@@ -116,10 +135,8 @@ _EISE, _EISA = "0x45495345", "0x45495341"
 
 def _stabilised(parser: object) -> str:
     """Return the camera's own stabilisation setting, if its metadata says it was on."""
-    try:
-        groups = parser.telemetry(human_readable=True)  # type: ignore[attr-defined]
-    except Exception:  # noqa: BLE001 - metadata is optional
-        return ""
+    groups = vendor_call(lambda: parser.telemetry(human_readable=True),  # type: ignore[attr-defined]
+                         None)
     for group in groups or ():
         for tags in (group or {}).values():
             if not isinstance(tags, dict):
@@ -144,12 +161,11 @@ def camera_of(path: str | os.PathLike) -> str | None:
         return None
     if telemetry_available():
         import telemetry_parser
-        try:
-            parser = telemetry_parser.Parser(str(p))
+        parser = vendor_call(lambda: telemetry_parser.Parser(str(p)), None)
+        name = ""
+        if parser is not None:
             make, model = (str(x or "").strip() for x in (parser.camera, parser.model))
             name = model if model.lower().startswith(make.lower()) else f"{make} {model}"
-        except Exception:  # noqa: BLE001 - the vendor parsers raise anything on other files
-            name = ""
         if name.strip():
             return " ".join(name.split())
     from .video import metadata_tags
