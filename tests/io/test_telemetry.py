@@ -17,11 +17,13 @@ pytest.importorskip("telemetry_parser", reason="telemetry-parser is not installe
 GSCALE = 1e-5  # rad/s per unit of the log
 
 
-def _write_gcsv(path, t, rates, orientation="XYZ"):
+def _write_gcsv(path, t, rates, orientation="XYZ", readout_ms=None):
     """A Gyroflow IMU log (.gcsv) beside a video: telemetry-parser reads it as the
     camera's own gyro, as it reads a GoPro's GPMF or a Sony's rtmd."""
     lines = ["GYROFLOW IMU LOG", "version,1.3", "id,unjello_test", f"orientation,{orientation}",
              "vendor,simcam", "tscale,0.001", f"gscale,{GSCALE}", "t,gx,gy,gz"]
+    if readout_ms is not None:
+        lines.insert(5, f"frame_readout_time,{readout_ms}")
     lines += [f"{1000 * ti:.3f},{a / GSCALE:.0f},{b / GSCALE:.0f},{c / GSCALE:.0f}"
               for ti, (a, b, c) in zip(t, rates, strict=True)]
     path.write_text("\n".join(lines) + "\n")
@@ -110,3 +112,17 @@ def test_a_parser_panic_is_no_traceback():
 
     with pytest.raises(KeyboardInterrupt):
         vendor_call(interrupted, None)
+
+
+def test_the_readout_the_camera_states(tmp_path, scene):
+    """A readout in the camera's metadata (here the .gcsv header's frame_readout_time, as
+    telemetry-parser decodes it) is used without --readout, and said."""
+    src = tmp_path / "cam.mp4"
+    make_clip(src, scene, n=3)
+    t, rates = gyro_samples(Motion("pan", fps=30.0), 1500.0, 0.2)
+    _write_gcsv(src.with_suffix(".gcsv"), t - t[0], rates, readout_ms=15.0)
+    res = run("correct", src, "-o", tmp_path / "out.mp4", "--json")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary["sources"]["readout"].startswith("camera metadata")
+    assert summary["readout"] == pytest.approx(0.45)

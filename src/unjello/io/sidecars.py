@@ -125,7 +125,8 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
     tp = vendor_call(lambda: telemetry_parser.Parser(str(p)), None)
     if tp is None:
         return None
-    value = _find_readout_key(vendor_call(lambda: tp.telemetry(human_readable=True), None))
+    # (structured: the human-readable form writes nested metadata as one string)
+    value = _find_readout_key(vendor_call(lambda: tp.telemetry(human_readable=False), None))
     if value is not None:
         return StatedReadout(value, f"camera metadata ({tp.camera} {tp.model})")
     return None
