@@ -9,6 +9,17 @@ from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
 
+def motion_file_error(path, sim):
+    """Mean per-scanline displacement error of a motion JSON against the simulator's truth,
+    and the uncorrected error (px)."""
+    import json
+
+    frames = json.loads(path.read_text())["frames"]
+    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
+                   for f, s in zip(frames, sim, strict=True)])
+    return err, np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+
+
 def make_clip(path, scene, *, n=8, size=(192, 144), fps=30, audio=True, rotation=0,
               pts=None, speed=6.0, readout=1.0, pix_fmt="yuv420p"):
     """Write a rolling-shutter pan; return the list of video pts written."""

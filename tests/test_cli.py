@@ -9,7 +9,7 @@ from unjello.io.frames import read_image, write_image
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
-from .clips import make_clip
+from .clips import make_clip, motion_file_error
 from .runner import clean_failure, run, run_process
 
 
@@ -215,10 +215,7 @@ def test_vibration_on_a_clip_shorter_than_its_window(tmp_path, clip, scene):
     # Six frames of a 16-frame window still correct the pan (the clip's own truth).
     sim = list(simulate(scene, Motion("pan", speed=6.0), SensorTiming(1.0), 6,
                         size=(192, 144)))
-    motion = json.loads((tmp_path / "m.json").read_text())
-    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
-                   for f, s in zip(motion["frames"], sim, strict=True)])
-    unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+    err, unc = motion_file_error(tmp_path / "m.json", sim)
     assert err < 0.2 * unc
 
 
@@ -270,7 +267,6 @@ def test_textureless_video_is_handled(tmp_path):
 
 def test_correct_with_a_gyro_log(tmp_path, scene):
     """A folder of frames and its gyro log (another clock, other axes): calibrated, corrected."""
-    import numpy as np
 
     from unjello.motion.gyro import axes_matrix
     from unjello.simulate import Motion, gyro_samples, simulate
@@ -292,10 +288,7 @@ def test_correct_with_a_gyro_log(tmp_path, scene):
     summary = json.loads(res.stdout)
     assert summary["method"] == "gyro" and summary["frames"] == 32
     assert "offset 100000" in " ".join(summary["messages"])
-    motion = json.loads((tmp_path / "m.json").read_text())
-    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
-                   for f, s in zip(motion["frames"], sim, strict=True)])
-    unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+    err, unc = motion_file_error(tmp_path / "m.json", sim)
     assert err < 0.1 * unc
     # The same log as a sidecar, NAME.gyro.csv beside the input, is found by --method gyro.
     log.rename(tmp_path / "frames.gyro.csv")
@@ -320,7 +313,6 @@ def test_gyro_mistakes_are_one_line(tmp_path, clip, args, message):
 
 def test_correct_a_video_with_its_gyro_log_keeps_frames_and_audio(tmp_path, scene):
     """A video and a sidecar log: its frame rate from the container, frames and audio kept."""
-    import numpy as np
 
     from unjello.simulate import Motion, gyro_samples, simulate
     from unjello.timing import SensorTiming
@@ -339,10 +331,7 @@ def test_correct_a_video_with_its_gyro_log_keeps_frames_and_audio(tmp_path, scen
     assert video_pts(out) == pts
     assert audio_packets(out) == audio_packets(src)
     sim = list(simulate(scene, Motion("pan", speed=6.0), SensorTiming(1.0), 32, size=(192, 144)))
-    motion = json.loads((tmp_path / "m.json").read_text())
-    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
-                   for f, s in zip(motion["frames"], sim, strict=True)])
-    unc = np.mean([np.abs(s.motion.displacement).mean() for s in sim])
+    err, unc = motion_file_error(tmp_path / "m.json", sim)
     assert err < 0.1 * unc
 
 

@@ -24,7 +24,19 @@ import numpy as np
 
 from .errors import SettingsError
 
-__all__ = ["CameraMode", "CameraMatch", "table", "search", "match"]
+__all__ = ["CameraMode", "CameraMatch", "camera_name", "table", "search", "match"]
+
+
+def camera_name(brand: str, model: str) -> str:
+    """Brand and model as one name, the brand once (``GoPro``, ``GoPro Max``: ``GoPro Max``).
+
+    Examples
+    --------
+    >>> camera_name("GoPro", "HERO5 Black"), camera_name("GoPro", "GoPro Max")
+    ('GoPro HERO5 Black', 'GoPro Max')
+    """
+    brand, model = " ".join(brand.split()), " ".join(model.split())
+    return model if model.lower().startswith(brand.lower()) else f"{brand} {model}".strip()
 
 
 @dataclass(frozen=True)
@@ -49,9 +61,8 @@ class CameraMode:
 
     @property
     def name(self) -> str:
-        """Brand and model (the model alone where it already names the brand)."""
-        return self.model if self.model.lower().startswith(self.brand.lower()) else \
-            f"{self.brand} {self.model}"
+        """Brand and model (:func:`camera_name`)."""
+        return camera_name(self.brand, self.model)
 
 
 @dataclass(frozen=True)
@@ -71,7 +82,7 @@ class CameraMatch:
     spread : tuple of float
         Smallest and largest readout they state (ms).
     modes : str
-        Which modes were used (``16:9 at 29.97 fps``, ``any mode``, ...).
+        Which modes were used (``its 1.78:1 modes at 29.97 fps``, ``any of its modes``...).
     focal : float or None
         Focal length in pixels of the clip's width (from modes of its aspect ratio).
     k : tuple of float or None

@@ -30,7 +30,7 @@ from typing import Any
 
 from .cameras import CameraMatch, match
 from .errors import SettingsError
-from .io.sidecars import stated_readout
+from .io.sidecars import read_lens_profile, stated_readout
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig
 from .motion.gyro import GyroConfig
@@ -525,9 +525,10 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
     else:
         stated = None
         if config.lens_profile:
-            stated = stated_readout(config.lens_profile, profile=True)
+            profile = read_lens_profile(config.lens_profile)
+            stated = profile.readout
             if stated is None:
-                messages.append(f"the lens profile {Path(config.lens_profile).name} states no "
+                messages.append(f"the lens profile {profile.name} states no "
                                 "frame_readout_time")
         stated = stated or stated_readout(path)
         found = None if stated is not None else _database(config, identified, size, fps)

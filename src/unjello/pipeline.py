@@ -23,7 +23,7 @@ from .cameras import match
 from .config import CorrectionConfig, ResolvedTiming, resolve_timing
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
-from .io.sidecars import gyro_source, profile_lens, read_gyro
+from .io.sidecars import gyro_source, read_gyro, read_lens_profile
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.telemetry import camera_of
@@ -338,8 +338,8 @@ def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, in
         return config, ()
     lens, source = None, ""
     if config.lens_profile:
-        lens, source = profile_lens(config.lens_profile, size[0]), \
-            f"lens profile {Path(config.lens_profile).name}"
+        profile = read_lens_profile(config.lens_profile)
+        lens, source = profile.lens(size[0]), f"lens profile {profile.name}"
     elif camera:
         found = match(camera, size[0], size[1], fps)
         if found is not None and found.focal is not None and found.k is not None:

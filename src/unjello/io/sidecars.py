@@ -20,8 +20,8 @@ from ..errors import InputError, SettingsError
 from ..motion.gyro import GyroConfig, GyroLog
 from .telemetry import embedded_gyro, telemetry_available, vendor_call
 
-__all__ = ["StatedReadout", "stated_readout", "find_gyro_log", "gyro_source", "read_gyro",
-           "write_gyro"]
+__all__ = ["StatedReadout", "stated_readout", "LensProfile", "read_lens_profile",
+           "find_gyro_log", "gyro_source", "read_gyro", "write_gyro"]
 
 
 @dataclass(frozen=True)
@@ -67,12 +67,8 @@ def _find_readout_key(obj: object, depth: int = 0) -> float | None:
     return None
 
 
-def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedReadout | None:
+def stated_readout(path: str | os.PathLike) -> StatedReadout | None:
     """Readout time stated for a video by a sidecar file or its metadata, if any.
-
-    With ``profile``, ``path`` is a lens profile given by the user (Gyroflow's JSON):
-    its ``frame_readout_time`` (None if it states none; a :class:`SettingsError` if it
-    cannot be read).
 
     Looked up, in order:
 
@@ -93,15 +89,6 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
     StatedReadout or None
     """
     p = Path(path)
-    if profile:
-        try:
-            value = _find_readout_key(json.loads(p.read_text()))
-        except OSError as exc:
-            raise SettingsError(f"{p}: cannot read the lens profile "
-                                f"({exc.strerror or exc})") from None
-        except ValueError:
-            raise SettingsError(f"{p}: not a lens profile (not JSON)") from None
-        return None if value is None else StatedReadout(value, f"lens profile {p.name}")
     for side in (p.with_name(p.name + ".readout.json"), p.with_name(p.name + ".json"),
                  p.with_suffix(".json")):
         if side != p and side.is_file():
@@ -132,26 +119,66 @@ def stated_readout(path: str | os.PathLike, profile: bool = False) -> StatedRead
     return None
 
 
-def profile_lens(path: str | os.PathLike, width: int) -> tuple[float, tuple[float, ...]] | None:
-    """Return a Gyroflow lens profile's focal length (at ``width`` px) and fisheye ``k``.
+@dataclass(frozen=True)
+class LensProfile:
+    """What a Gyroflow lens profile (JSON) given by the user states.
 
-    None when the profile has no fisheye camera matrix and four coefficients.
+    Attributes
+    ----------
+    name : str
+        The file's name.
+    readout : StatedReadout or None
+        Its ``frame_readout_time``.
+    focal, width : float or None
+        The fisheye camera matrix's focal length, at the calibrated width.
+    k : tuple of float or None
+        The four fisheye distortion coefficients.
+    """
+
+    name: str
+    readout: StatedReadout | None
+    focal: float | None = None
+    width: float | None = None
+    k: tuple[float, ...] | None = None
+
+    def lens(self, width: int) -> tuple[float, tuple[float, ...]] | None:
+        """Return the focal length at ``width`` px and ``k``, if the profile states both."""
+        if self.focal is None or self.k is None:
+            return None
+        return self.focal * (width / self.width if self.width else 1.0), self.k
+
+
+def read_lens_profile(path: str | os.PathLike) -> LensProfile:
+    """Read a Gyroflow lens profile: its readout, focal length and fisheye distortion.
+
+    Raises
+    ------
+    SettingsError
+        If it cannot be read or is not JSON.
     """
     p = Path(path)
     try:
         doc = json.loads(p.read_text())
-    except (OSError, ValueError):
-        raise SettingsError(f"{p}: cannot read the lens profile") from None
-    fisheye = doc.get("fisheye_params") or {} if isinstance(doc, dict) else {}
-    matrix, k = fisheye.get("camera_matrix"), fisheye.get("distortion_coeffs")
-    calib_w = ((doc.get("calib_dimension") or {}).get("w") if isinstance(doc, dict) else None)
+    except OSError as exc:
+        raise SettingsError(f"{p}: cannot read the lens profile "
+                            f"({exc.strerror or exc})") from None
+    except ValueError:
+        raise SettingsError(f"{p}: not a lens profile (not JSON)") from None
+    value = _find_readout_key(doc)
+    readout = None if value is None else StatedReadout(value, f"lens profile {p.name}")
+    if not isinstance(doc, dict):
+        return LensProfile(p.name, readout)
+    fisheye = doc.get("fisheye_params") or {}
     try:
-        fx = float(matrix[0][0])  # type: ignore[index]
-        coef = tuple(float(v) for v in k)  # type: ignore[union-attr]
-        scale = width / float(calib_w) if calib_w else 1.0
-    except (TypeError, ValueError, IndexError):
-        return None
-    return (fx * scale, coef) if len(coef) == 4 and fx > 0 else None
+        fx = float(fisheye["camera_matrix"][0][0])
+        k = tuple(float(v) for v in fisheye["distortion_coeffs"])
+        width = (doc.get("calib_dimension") or {}).get("w")
+        calib_w = float(width) if width else None
+    except (KeyError, TypeError, ValueError, IndexError):
+        return LensProfile(p.name, readout)
+    if len(k) != 4 or not fx > 0:
+        return LensProfile(p.name, readout)
+    return LensProfile(p.name, readout, fx, calib_w, k)
 
 
 def find_gyro_log(src: str | os.PathLike) -> Path:

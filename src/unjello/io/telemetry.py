@@ -21,6 +21,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from ..cameras import camera_name
 from ..errors import InputError
 from ..motion.gyro import GyroLog
 
@@ -79,8 +80,7 @@ class EmbeddedGyro:
 
     def describe(self) -> str:
         """One line: whose gyro, how many samples."""
-        name = self.model if self.model.startswith(self.camera) else \
-            f"{self.camera} {self.model}".strip()
+        name = camera_name(self.camera, self.model)
         return (f"the camera's own gyro ({name or 'unknown camera'}: {self.log.time.size:,} "
                 f"samples at {self.rate_hz:.0f} Hz, read by telemetry-parser)")
 
@@ -162,17 +162,13 @@ def camera_of(path: str | os.PathLike) -> str | None:
     if telemetry_available():
         import telemetry_parser
         parser = vendor_call(lambda: telemetry_parser.Parser(str(p)), None)
-        name = ""
         if parser is not None:
-            make, model = (str(x or "").strip() for x in (parser.camera, parser.model))
-            name = model if model.lower().startswith(make.lower()) else f"{make} {model}"
-        if name.strip():
-            return " ".join(name.split())
+            name = camera_name(str(parser.camera or ""), str(parser.model or ""))
+            if name:
+                return name
     from .video import metadata_tags
 
     tags = {k.lower(): str(v).strip() for k, v in metadata_tags(p).items()}
     make = next((v for k, v in tags.items() if k.endswith("make") and v), "")
     model = next((v for k, v in tags.items() if k.endswith("model") and v), "")
-    if not model:
-        return None
-    return model if model.lower().startswith(make.lower()) else f"{make} {model}".strip()
+    return camera_name(make, model) if model else None

@@ -129,6 +129,7 @@ class PaperMethod:
         self._pairs: dict[int, _Pair] = {}
         self._count = 0
         self._last_g = (0.0, 0.0)
+        self._last_curve: tuple[int, np.ndarray] | None = None  # (frame, its Bezier D)
 
     # -- sample bookkeeping ------------------------------------------------------------
     def _samples(self, exclude_local: int | None = None, local: bool = True
@@ -237,12 +238,12 @@ class PaperMethod:
                  "local samples diverged: the global motion alone used" if diverged else ""]
         disp = scanline_displacement(vel, self.timing)
         curve = disp
-        vel, disp, said = self._least_sheared(n, times, vel, disp)
+        vel, disp, said = self._do_no_harm(n, times, vel, disp)
         self._last_curve = (n, curve)  # the next frame is judged against it, not a choice
         return FrameMotion(n, start, disp, vel, ok=ok,
                            note="; ".join(x for x in (*notes, said) if x))
 
-    def _least_sheared(self, n: int, times: np.ndarray, vel: np.ndarray, disp: np.ndarray
+    def _do_no_harm(self, n: int, times: np.ndarray, vel: np.ndarray, disp: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, str]:
         """Do no harm: keep the correction under which frame n agrees with its neighbours.
 
@@ -262,7 +263,7 @@ class PaperMethod:
         h = disp.shape[0]
         # (pair, earlier frame's D, later frame's D); None: the candidate
         checks: list[tuple[_Pair, np.ndarray | None, np.ndarray | None]] = []
-        last = getattr(self, "_last_curve", None)
+        last = self._last_curve
         back = self._pairs.get(n)
         if back is not None and back.local_y.size >= 4 and last is not None and last[0] == n - 1:
             checks.append((back, last[1], None))
