@@ -2,10 +2,10 @@
 
 1. The LED frame in ``../shared/data/readout`` (1 kHz, published readout 15.730 ms).
 2. ``estimate_readout`` (what ``--readout auto`` runs) on simulated clips with known
-   readout: hand shake, pan-then-stop, drone jello, a diagonal pan that stops and a
-   constant one at rho 0.3 ... 1.0; true vs estimated, confidence, and the median /
-   worst error per motion. "unsure" marks an estimate that fell back to 1.0 for lack of
-   evidence.
+   readout: hand shake, pan-then-stop, pans that start from still (over one frame, or
+   abruptly), drone jello, a diagonal pan that stops and a constant one at rho
+   0.3 ... 1.0; true vs estimated, confidence, and the median / worst error per
+   motion. "unsure" marks an estimate that fell back to 1.0 for lack of evidence.
 3. What it picks on the shared real and rendered sequences (no ground truth for the
    readout beyond "about one frame interval"; the phone clip's publisher states a
    rolling-shutter span of 33.312 ms at 30 fps, i.e. rho 1.0).
@@ -35,6 +35,8 @@ RHOS = (0.3, 0.5, 0.7, 0.9, 1.0)
 def motions(frames: int) -> dict[str, Motion]:
     return {"hand shake": Motion("shake"),
             "pan then stop": Motion("stop", speed=7.0, stop_at=frames / 2),
+            "pan from rest": Motion.from_rest(8.0, 0.0),
+            "diagonal from rest, abrupt": Motion.steps([(0.0, 0.0), (8.0, 4.0)], [2.3]),
             "drone jello": Motion("jello"),
             "diagonal pan then stop": _diagonal_stop(frames),
             "diagonal pan (constant)": Motion("diagonal", speed=6.1)}
@@ -62,7 +64,7 @@ def main() -> None:
         print(f"skipped the LED frame: {led} is absent")
     print(f"\nestimate from footage: {args.frames} simulated frames of {size[0]}x{size[1]}; "
           "true -> estimated (confidence)")
-    print(f"{'motion':24}" + "".join(f"{rho:>21}" for rho in RHOS) + "   median |err|  worst")
+    print(f"{'motion':27}" + "".join(f"{rho:>21}" for rho in RHOS) + "   median |err|  worst")
     all_err = []
     for name, motion in motions(args.frames).items():
         cells, errs = [], []
@@ -74,7 +76,7 @@ def main() -> None:
             cells.append(f"{est.readout:.3f} ({est.confidence:.2f}){tag}")
             errs.append(abs(est.readout - rho))
         all_err += errs
-        print(f"{name:24}" + "".join(f"{c:>21}" for c in cells)
+        print(f"{name:27}" + "".join(f"{c:>21}" for c in cells)
               + f"   {np.median(errs):12.3f}  {max(errs):5.3f}", flush=True)
     print(f"all motions: median |err| {np.median(all_err):.3f}, worst {max(all_err):.3f}")
     varying = all_err[:-len(RHOS)]  # the constant pan is last: no method can tell

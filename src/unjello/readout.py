@@ -183,11 +183,13 @@ def readout_from_flicker(image: np.ndarray, frequency: float, *,
                           contrast=contrast)
 
 
-#: Weight of the trajectory's acceleration penalty when scoring a readout candidate, and
+#: Weight of the trajectory's acceleration penalty when scoring a readout candidate, its
+#: reweighting rounds (an abrupt start or stop is not a smooth acceleration), and
 #: the vibration model's sinusoids and their highest frequency (cycles per frame interval:
 #: 48 Hz at 30 fps), as calibrated with ``benchmarks/readout.py`` (``docs/tuning.md``).
 _SMOOTHNESS = 1e-4
 _SINUSOIDS = 6
+_ROBUST = 3
 _MAX_CYCLES = 1.6
 
 
@@ -341,7 +343,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
             t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eq]) for i in range(4))
             total += _spectral_cost(t_a, t_b, delta, wgt) if vibrating else (
                 solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
-                                        _SMOOTHNESS).cost)
+                                        _SMOOTHNESS, robust=_ROBUST).cost)
         costs[j] = total
     best = int(np.argmin(costs))
     rho = float(candidates[best])

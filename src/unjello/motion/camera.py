@@ -28,6 +28,10 @@ BLAS = ThreadpoolController()
 # sinusoid the frame differences barely see must not fit noise (``docs/tuning.md``).
 SINE_RIDGE = 1e-3
 
+# Acceleration beyond this many times the median is penalised by its size rather than its
+# square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
+ROBUST_KNEE = 3.0
+
 def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,
                                                                                   np.ndarray,
                                                                                   np.ndarray]:
@@ -38,19 +42,20 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def _second_difference_band(n: int) -> np.ndarray:
-    """``D2^T D2`` for the second-difference operator on ``n`` samples, as a 3-row upper band.
+def _second_difference_band(n: int, weights: np.ndarray | None = None) -> np.ndarray:
+    """``D2^T W D2`` for the second-difference operator on ``n`` samples, as a 3-row upper band.
 
     Row ``2 - d`` holds the ``d``-th superdiagonal (LAPACK's upper band storage, right
-    aligned): the diagonal is ``1, 5, 6, ..., 6, 5, 1``, the first superdiagonal
-    ``-2, -4, ..., -4, -2``, the second all ones.
+    aligned). Without ``weights`` (one per second difference, ``n - 2``), ``W = I``: the
+    diagonal is ``1, 5, 6, ..., 6, 5, 1``, the first superdiagonal ``-2, -4, ..., -4, -2``,
+    the second all ones.
     """
     band = np.zeros((3, n))
     if n >= 3:
-        ones = np.ones(n - 2)
-        band[2] = np.convolve(ones, [1.0, 4.0, 1.0])
-        band[1, 1:] = np.convolve(ones, [-2.0, -2.0])
-        band[0, 2:] = ones
+        w = np.ones(n - 2) if weights is None else weights
+        band[2] = np.convolve(w, [1.0, 4.0, 1.0])
+        band[1, 1:] = np.convolve(w, [-2.0, -2.0])
+        band[0, 2:] = w
     return band
 
 
@@ -124,7 +129,8 @@ class CameraSolution:
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
                             smoothness: float, row_knots: int = 16,
-                            freqs: np.ndarray | None = None) -> CameraSolution:
+                            freqs: np.ndarray | None = None, robust: int = 0
+                            ) -> CameraSolution:
     """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.
 
     ``c`` is the camera's image-plane trajectory on a time grid; ``u`` is a velocity that
@@ -155,6 +161,12 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         Frequencies (cycles per unit of time) of sinusoids added to ``c`` with free
         amplitudes, outside the smoothness penalty (vibration; see
         :func:`sinusoid_pursuit`).
+    robust : int
+        Reweighting rounds (iteratively reweighted least squares) that make the penalty
+        on an acceleration beyond :data:`ROBUST_KNEE` times the median grow with its
+        size rather than its square: a velocity that changes within a fraction of a
+        frame (a pan starting from still) then costs its size, not its size squared
+        over its duration, which favoured a readout that spread it out.
 
     Returns
     -------
@@ -217,6 +229,7 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     c_uu = border.T @ border
     scale = weight.sum()
     # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
+    data_band = band.copy()
     band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n)
     if ku:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
@@ -229,6 +242,14 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     c_uu += jitter * np.eye(k)
     with BLAS.limit(limits=1, user_api="blas"):
         sol = _solve_bordered_banded(band, b_cu, c_uu, atb)
+        for _ in range(robust):
+            accel = np.linalg.norm(np.diff(sol[:n], 2, axis=0), axis=1)
+            knee = max(ROBUST_KNEE * float(np.median(accel)), 1e-3 * float(accel.max()), 1e-12)
+            band = data_band.copy()
+            relief = np.minimum(1.0, knee / (accel + 1e-12))
+            band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n, relief)
+            band[bw] += jitter
+            sol = _solve_bordered_banded(band, b_cu, c_uu, atb)
     cost = float((rhs ** 2).sum() - (sol * atb).sum())
     c, u = sol[:n], sol[n:n + ku]
     if freqs.size:
