@@ -31,7 +31,7 @@ def test_presets_are_library_objects(tmp_path):
     assert mine.origins["readout"] == "preset my.json"
     # A preset applied to other settings keeps what it does not name.
     assert CorrectionConfig.from_preset("drone", base=mine).method == "paper"
-    assert set(PRESETS) == {"paper-figures", "fast", "drone"}
+    assert set(PRESETS) == {"paper-figures", "fast", "drone", "handheld"}
 
 
 @pytest.mark.parametrize("value, parsed", [

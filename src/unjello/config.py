@@ -35,6 +35,7 @@ from .io.video import EncodeOptions
 from .motion.dense import DenseConfig
 from .motion.gyro import GyroConfig
 from .motion.paper import PaperConfig
+from .stabilize import StabilizeConfig, crop_request
 from .timing import (
     DIRECTIONS,
     REFERENCES,
@@ -83,6 +84,8 @@ class CorrectionConfig:
         Content of the area no scanline reaches.
     paper, dense, gyro : PaperConfig, DenseConfig, GyroConfig
         Settings of each method.
+    stabilize : StabilizeConfig
+        Stabilisation in the same warp (:mod:`unjello.stabilize`; off by default).
     encode : EncodeOptions
         Encoder of an output video.
 
@@ -107,6 +110,7 @@ class CorrectionConfig:
     paper: PaperConfig = field(default_factory=PaperConfig)
     dense: DenseConfig = field(default_factory=DenseConfig)
     gyro: GyroConfig = field(default_factory=GyroConfig)
+    stabilize: StabilizeConfig = field(default_factory=StabilizeConfig)
     encode: EncodeOptions = field(default_factory=EncodeOptions)
     #: Where the timing settings came from (``{"readout": "preset my.json"}``).
     origins: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
@@ -130,6 +134,9 @@ class CorrectionConfig:
             raise SettingsError(f"warp must be one of {', '.join(WARPS)}, not {self.warp!r}")
         if self.fill not in FILLS:
             raise SettingsError(f"fill must be one of {', '.join(FILLS)}, not {self.fill!r}")
+        if self.stabilize.enabled and self.warp == "splat":
+            raise SettingsError("stabilize needs warp=remap: the paper's forward splatting "
+                                "cannot take the stabilisation in the same warp")
 
     def with_options(self, origin: str = "settings", **values: Any) -> CorrectionConfig:
         """Return a copy with options set by their flat names (:data:`OPTIONS`).
@@ -404,6 +411,14 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "model, as in Gyroflow's lens profiles) for the gyro method; default: the lens "
            "profile's or the camera database's, else none (a pinhole).", per_clip=True,
            to_field=_coefficients, from_field=_show_coefficients),
+    Option("stabilize", "stabilize.enabled", "Also stabilise: render every frame at a "
+           "smoothed camera path, in the same warp as the correction.", kind="flag"),
+    Option("smoothness", "stabilize.smoothness", "Stabilisation: how smooth the camera path "
+           "is, seconds: shake faster than about 0.2 / smoothness Hz goes (default 0.3).",
+           kind="float"),
+    Option("crop", "stabilize.crop", "Stabilisation: 'auto' (the least zoom that keeps the "
+           "borders filled, changing gradually), 'none', or a fraction cut from each "
+           "side pair, e.g. 0.1.", to_field=crop_request),
     Option("codec", "encode.codec", "Encoder of the output video."),
     Option("crf", "encode.crf", "Encoder quality (0-51, lower is better).", kind="int"),
     Option("x264_preset", "encode.preset", "Encoder speed/size preset (ultrafast ... "
@@ -421,6 +436,8 @@ PRESETS: dict[str, dict[str, Any]] = {
     "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
     # Drones and vehicles: vibration near the frame rate.
     "drone": {"vibration": "on"},
+    # Hand-held walking shots: the correction and a stabilisation in one warp.
+    "handheld": {"stabilize": True},
 }
 
 

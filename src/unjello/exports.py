@@ -18,18 +18,20 @@ from .io.source import FrameSource
 from .io.video import EncodeOptions, VideoWriter
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
-from .warp import field_maps, remap_maps, resize_maps
+from .warp import frame_maps, resize_maps
 
 __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "write_stmap",
            "plot_trajectory", "side_by_side", "side_by_side_planes", "SideOutputs"]
 
 
 def backward_maps(motion: FrameMotion, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """Source position of every output pixel (top-bottom orientation), as the warper uses."""
-    if motion.field is not None:
-        h = motion.displacement.shape[0]
-        return resize_maps(*field_maps(motion.field, frame=(h, width)), h, width)
-    return remap_maps(motion.displacement, width)
+    """Source position of every output pixel (top-bottom orientation), as the warper uses.
+
+    The whole warp: the correction and, when stabilised, the frame's reframe.
+    """
+    h = motion.displacement.shape[0]
+    maps, coarse = frame_maps(motion, h, width)
+    return resize_maps(*maps, h, width) if coarse else maps
 
 
 def maps_to_coded(map_x: np.ndarray, map_y: np.ndarray, direction: str

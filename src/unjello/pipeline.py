@@ -31,6 +31,7 @@ from .motion.dense import DenseMethod
 from .motion.gyro import GyroLog, GyroMethod
 from .motion.paper import PaperMethod
 from .readout import estimate_readout_file
+from .stabilize import Stabilizer
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
 from .warp import PictureWarper
@@ -110,6 +111,8 @@ class Corrector:
                                     "distortion=")
             lens = (config.gyro.focal, config.gyro.distortion)
         self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
+        self.fps = fps
+        self._stabilizer: Stabilizer | None = None
         self._held: deque[list[np.ndarray]] = deque()
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
 
@@ -126,11 +129,20 @@ class Corrector:
         mv = self.max_value or _max_value(planes[0].dtype)
         luma = _luma255(to_top_bottom(planes[0], self.timing.direction), mv)
         self._held.append(planes)
-        return self._apply(self._method.push(luma, start))
+        motions = self._method.push(luma, start)
+        if self.config.stabilize.enabled:
+            if self._stabilizer is None:
+                self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
+                                              (luma.shape[1], luma.shape[0]), self.fps)
+            motions = self._stabilizer.push(motions)
+        return self._apply(motions)
 
     def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
         """Correct the pictures still held at the end of the clip."""
-        return self._apply(self._method.flush())
+        motions = self._method.flush()
+        if self._stabilizer is not None:
+            motions = self._stabilizer.push(motions) + self._stabilizer.flush()
+        return self._apply(motions)
 
     def _apply(self, motions: list[FrameMotion]) -> list[tuple[list[np.ndarray], FrameMotion]]:
         out = []

@@ -22,7 +22,8 @@ object), ``folds`` (share where the applied map still folds or tears in blobs),
 ``displacement`` and ``velocity`` as
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
-full ``field_shape`` ``[h, w]``.
+full ``field_shape`` ``[h, w]``; when stabilised, ``shift`` ``[x, y]`` and ``zoom`` (the
+:class:`Reframe` the warp applied on top of the correction).
 """
 
 from __future__ import annotations
@@ -38,11 +39,29 @@ import numpy as np
 from .errors import InputError
 from .timing import SensorTiming
 
-__all__ = ["FrameMotion", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
+__all__ = ["FrameMotion", "Reframe", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
            "scanline_displacement"]
 
 SCHEMA_VERSION = 1
 FIELD_STEP = 8
+
+
+@dataclass(frozen=True)
+class Reframe:
+    """How a corrected frame is shown (stabilisation, :mod:`unjello.stabilize`).
+
+    Output pixel ``p`` shows the corrected frame at ``c + (p - c) / zoom - shift``, ``c``
+    the frame's centre; ``shift`` is in pixels of the full frame, top-bottom orientation.
+    The identity (no shift, zoom 1) is the plain correction.
+    """
+
+    shift: tuple[float, float] = (0.0, 0.0)
+    zoom: float = 1.0
+
+    @property
+    def identity(self) -> bool:
+        """True when the frame is shown as corrected."""
+        return self.shift == (0.0, 0.0) and self.zoom == 1.0
 
 
 @dataclass(frozen=True)
@@ -88,6 +107,8 @@ class FrameMotion:
         Dense methods: the flow from this frame to the frame ``offset`` away, shape
         (hf, wf, 2) in pixels of its own (hf, wf) grid, for filling what this frame does
         not see from its neighbours (not saved; dropped with ``field``).
+    reframe : Reframe
+        The stabilisation's shift and zoom, applied in the same warp (identity without).
     """
 
     index: int
@@ -103,6 +124,7 @@ class FrameMotion:
     spun: float = 0.0
     field: np.ndarray | None = None
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
+    reframe: Reframe = Reframe()
 
     @property
     def confidence(self) -> float:
@@ -152,6 +174,9 @@ class FrameMotion:
             "displacement": np.round(self.displacement, 4).tolist(),
             "velocity": np.round(self.velocity, 4).tolist(),
         }
+        if not self.reframe.identity:
+            d["shift"] = [round(float(v), 4) for v in self.reframe.shift]
+            d["zoom"] = round(float(self.reframe.zoom), 6)
         if self.field is not None:
             h, w = self.field.shape[:2]
             # The field's grid may be coarser than the frame (the dense method's working
@@ -186,6 +211,8 @@ class FrameMotion:
             folds=float(d.get("folds", 0.0)),
             spun=float(d.get("spun", 0.0)),
             field=field,
+            reframe=Reframe(tuple(float(v) for v in d.get("shift", (0.0, 0.0))),  # type: ignore[arg-type]
+                            float(d.get("zoom", 1.0))),
         )
 
 

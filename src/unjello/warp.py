@@ -29,11 +29,12 @@ import cv2
 import numpy as np
 
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
-from .trajectory import FrameMotion
+from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
            "splat", "remap", "apply_maps", "fill_holes", "field_maps",
-           "resize_maps", "remap_maps", "neighbour_sources", "fill_from_neighbours"]
+           "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "neighbour_sources",
+           "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -329,6 +330,71 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
     return mx, my
 
 
+def reframe_maps(maps: tuple[np.ndarray, np.ndarray], reframe: Reframe,
+                 frame: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Compose backward maps with a stabilisation's shift and zoom: one resampling.
+
+    Output pixel ``p`` shows the corrected frame at ``q = c + (p - c) / zoom - shift``
+    (:class:`~unjello.trajectory.Reframe`), and the corrected frame's pixel ``q`` comes
+    from the source at ``maps(q)``; the composition ``maps(q)`` is what the picture is
+    then sampled at, once. ``maps`` is interpolated as a displacement ``maps(q) - q``,
+    held at the edges, so a ``q`` beyond the frame keeps the nearest displacement.
+
+    Parameters
+    ----------
+    maps : tuple of ndarray of shape (gh, gw)
+        Backward maps on a grid of ``gh x gw`` samples over the frame (the frame's own
+        pixels, or a coarser grid: the values are in the grid's pixels).
+    reframe : Reframe
+    frame : tuple of int
+        ``(height, width)`` of the frame ``shift`` is measured in.
+
+    Returns
+    -------
+    map_x, map_y : ndarray of shape (gh, gw), float32
+
+    Examples
+    --------
+    The identity map shifted by 3 px: every output pixel reads 3 px to its left.
+
+    >>> mx, my = pixel_grid(4, 6)
+    >>> out = reframe_maps((mx, my), Reframe((3.0, 0.0), 1.0), (4, 6))
+    >>> (out[0] - mx).round(3).tolist()[0]
+    [-3.0, -3.0, -3.0, -3.0, -3.0, -3.0]
+    """
+    if reframe.identity:
+        return maps
+    gh, gw = maps[0].shape
+    sx, sy = gw / frame[1], gh / frame[0]
+    gx, gy = pixel_grid(gh, gw)
+    z = np.float32(reframe.zoom)
+    qx = (gx - np.float32((gw - 1) / 2)) / z + np.float32((gw - 1) / 2 - reframe.shift[0] * sx)
+    qy = (gy - np.float32((gh - 1) / 2)) / z + np.float32((gh - 1) / 2 - reframe.shift[1] * sy)
+    disp = np.dstack([maps[0] - gx, maps[1] - gy])
+    d = cv2.remap(disp, qx, qy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return qx + d[..., 0], qy + d[..., 1]
+
+
+def frame_maps(motion: FrameMotion, height: int, width: int
+               ) -> tuple[tuple[np.ndarray, np.ndarray], bool]:
+    """Backward maps of a frame's whole warp (correction and reframe), top-bottom.
+
+    A per-pixel motion's maps come on its field's grid (coarse: :func:`resize_maps`
+    takes them to each plane); a per-scanline one's at ``height x width``.
+
+    Returns
+    -------
+    maps : tuple of ndarray
+    coarse : bool
+        True for maps on the field's grid.
+    """
+    if motion.field is not None:
+        maps = field_maps(motion.field, frame=(height, width))
+        return reframe_maps(maps, motion.reframe, (height, width)), True
+    maps = remap_maps(motion.displacement, width)
+    return reframe_maps(maps, motion.reframe, (height, width)), False
+
+
 def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Bilinear samples of ``image`` at the points ``(x, y)`` (1-D arrays)."""
     n = x.size
@@ -437,9 +503,11 @@ class PictureWarper:
     displacement scaled to its size (4:2:0 chroma included) and turned back. A per-pixel
     motion (``field``) is applied by backward maps (:func:`field_maps`); a per-scanline
     one by :func:`remap_maps` or, with ``warp='splat'``, by the paper's forward
-    splatting (:func:`splat`). With ``fill='nearest'`` and a dense motion's neighbour
-    flows, what the frame does not see is taken from its neighbours
-    (:func:`fill_from_neighbours`) instead of repeating the edge.
+    splatting (:func:`splat`). A stabilisation's :class:`~unjello.trajectory.Reframe` is
+    composed with the backward maps (:func:`reframe_maps`): one resampling. With
+    ``fill='nearest'`` and a dense motion's neighbour flows, what the frame does not see
+    is taken from its neighbours (:func:`fill_from_neighbours`) instead of repeating the
+    edge.
 
     Parameters
     ----------
@@ -482,7 +550,8 @@ class PictureWarper:
         d = self.direction
         fill: Fill = "black" if self.fill == "black" else "nearest"
         h, w = to_top_bottom(planes[0], d).shape[:2]
-        maps = field_maps(motion.field, frame=(h, w)) if motion.field is not None else None
+        maps = (reframe_maps(field_maps(motion.field, frame=(h, w)), motion.reframe, (h, w))
+                if motion.field is not None else None)
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         sources: list[tuple[list[np.ndarray], np.ndarray]] = []
         parts: dict[tuple[int, int], list] = {}
@@ -500,8 +569,9 @@ class PictureWarper:
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
-                        remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
-                                   out=self._buffer(ph, pw)))
+                        reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
+                                                out=self._buffer(ph, pw)),
+                                     motion.reframe, (h, w)))
                 res = apply_maps(tb, sized[(ph, pw)], fill=fill)
                 if maps is not None and sources:
                     if (ph, pw) not in parts:

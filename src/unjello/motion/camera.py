@@ -18,7 +18,8 @@ import numpy as np
 from scipy import linalg
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["BLAS", "SINE_RIDGE", "CameraSolution", "solve_camera_trajectory"]
+__all__ = ["BLAS", "SINE_RIDGE", "ROBUST_KNEE", "CameraSolution", "solve_camera_trajectory",
+           "second_difference_band"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
@@ -42,7 +43,7 @@ def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[n
     return i0, 1.0 - f, f
 
 
-def _second_difference_band(n: int, weights: np.ndarray | None = None) -> np.ndarray:
+def second_difference_band(n: int, weights: np.ndarray | None = None) -> np.ndarray:
     """``D2^T W D2`` for the second-difference operator on ``n`` samples, as a 3-row upper band.
 
     Row ``2 - d`` holds the ``d``-th superdiagonal (LAPACK's upper band storage, right
@@ -230,10 +231,10 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     scale = weight.sum()
     # Acceleration of c: sum (d2 c / step^2)^2 * step ~ integral of the squared acceleration.
     data_band = band.copy()
-    band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n)
+    band[bw - 2:] += smoothness * scale / step**3 * second_difference_band(n)
     if ku:
         # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        c_uu[:ku, :ku] += (1e-3 * scale * _band_to_dense(_second_difference_band(ku))
+        c_uu[:ku, :ku] += (1e-3 * scale * _band_to_dense(second_difference_band(ku))
                            + 1e-4 * scale * np.eye(ku))
     if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
         c_uu[ku:, ku:] += SINE_RIDGE * scale * np.eye(k - ku)
@@ -247,7 +248,7 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
             knee = max(ROBUST_KNEE * float(np.median(accel)), 1e-3 * float(accel.max()), 1e-12)
             band = data_band.copy()
             relief = np.minimum(1.0, knee / (accel + 1e-12))
-            band[bw - 2:] += smoothness * scale / step**3 * _second_difference_band(n, relief)
+            band[bw - 2:] += smoothness * scale / step**3 * second_difference_band(n, relief)
             band[bw] += jitter
             sol = _solve_bordered_banded(band, b_cu, c_uu, atb)
     cost = float((rhs ** 2).sum() - (sol * atb).sum())

@@ -1,0 +1,355 @@
+"""Stabilisation: `unjello correct --stabilize` side by side with vid.stab (ffmpeg).
+
+vid.stab (``vidstabdetect`` + ``vidstabtransform``, inside ffmpeg) is the open-source
+stabiliser most people have; it has no rolling-shutter correction. Both tools read the
+same PNG frames and write PNG frames (no codec in between); the measurements read the
+outputs only, the same way for both.
+
+1. Simulated hand-held clips (shake, a walk, a pan with shake; 640x360, readout 0.8,
+   90 frames at 30 fps), whose intended (smooth) camera path the simulator knows. Both
+   tools crop the same 10 % (unjello ``--crop 0.1``, vid.stab ``zoom=11.11:optzoom=0``).
+   The output's inter-frame motion is measured (features tracked in the central 70 %,
+   a similarity fitted with RANSAC); the *residual jitter* is the output's camera path
+   (the measured motion less the intended one, accumulated) less its 1 s low-pass, RMS
+   in px. The rolling-shutter error: PSNR of unjello's output against the global-
+   shutter truth shown through the same reframe (its motion JSON), central 80 %, with
+   and without ``--stabilize``.
+2. Real clips (``../shared/data/sequences``: the phone in a car, the two GoPro files;
+   the first ``--frames`` frames): the high-frequency energy of the output's global
+   inter-frame motion (its part above about 1 Hz; x, y and the rotation as px at the
+   frame's corner), for the input, vid.stab (its defaults, with its own static zoom)
+   and unjello (``--stabilize``, automatic crop).
+3. Speed: ``unjello correct`` with and without ``--stabilize`` on a 1080p clip, in one
+   run (``--speed``).
+
+Usage::
+
+    python benchmarks/stabilise.py [--frames 150] [--speed] [--skip-real]
+
+vid.stab needs an ffmpeg built with it (Debian's and most distributions' are); without
+it those columns are skipped, with the reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+from skimage import data
+
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming, pixel_grid
+from unjello.trajectory import Trajectory
+from unjello.warp import apply_maps, reframe_maps
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+UNJELLO = [sys.executable, "-m", "unjello"]
+FPS = 30.0
+CROP = 0.1
+
+
+def _frames(folder: Path) -> list[np.ndarray]:
+    def key(p: Path) -> list:
+        return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
+    return [cv2.imread(str(p)) for p in sorted(folder.glob("*.png"), key=key)]
+
+
+def _write(frames: list[np.ndarray], folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(folder / f"{i:05d}.png"), f)
+    return folder
+
+
+def vidstab_missing() -> str | None:
+    """None when ffmpeg with vid.stab runs here, else why not."""
+    if shutil.which("ffmpeg") is None:
+        return "no ffmpeg on this machine (Debian: apt install ffmpeg)"
+    out = subprocess.run(["ffmpeg", "-hide_banner", "-filters"], capture_output=True,
+                         text=True).stdout
+    return None if "vidstabtransform" in out else "this ffmpeg is built without vid.stab"
+
+
+def run_vidstab(src: Path, dst: Path, *, smoothing: int = 10, zoom: float | None = None
+                ) -> float:
+    """vid.stab's two passes on a PNG folder (it reads planar YUV); returns seconds."""
+    dst.mkdir(parents=True, exist_ok=True)
+    trf = dst / "transforms.trf"
+    pattern = ["-framerate", str(FPS), "-i", str(src / "%05d.png")]
+    t0 = time.perf_counter()
+    subprocess.run(["ffmpeg", "-v", "error", "-y", *pattern, "-vf",
+                    f"format=yuv420p,vidstabdetect=shakiness=5:accuracy=15:result={trf}",
+                    "-f", "null", "-"],
+                   check=True)
+    zoom_opt = f":zoom={zoom:.2f}:optzoom=0" if zoom is not None else ""
+    subprocess.run(["ffmpeg", "-v", "error", "-y", *pattern, "-vf",
+                    f"format=yuv420p,vidstabtransform=input={trf}:smoothing={smoothing}{zoom_opt}"
+                    ":interpol=bicubic", "-start_number", "0", str(dst / "%05d.png")],
+                   check=True)
+    return time.perf_counter() - t0
+
+
+def run_unjello(src: Path, dst: Path, *extra: str) -> float:
+    t0 = time.perf_counter()
+    subprocess.run([*UNJELLO, "correct", str(src), "-o", str(dst), "--fps", str(FPS), "-y",
+                    "--motion-out", str(dst.with_suffix(".json")), *extra],
+                   check=True, capture_output=True)
+    return time.perf_counter() - t0
+
+
+def interframe_motion(frames: list[np.ndarray]) -> np.ndarray:
+    """Per consecutive pair: the content's shift (x, y, px) and rotation (rad), (n-1, 3).
+
+    Features in the central 70 % of the earlier frame, tracked by pyramidal Lucas-Kanade,
+    a similarity fitted with RANSAC (as stabilisers measure motion).
+    """
+    out = []
+    for a, b in zip(frames[:-1], frames[1:], strict=True):
+        ga, gb = (cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in (a, b))
+        h, w = ga.shape
+        mask = np.zeros_like(ga)
+        mask[int(0.15 * h):int(0.85 * h), int(0.15 * w):int(0.85 * w)] = 255
+        pts = cv2.goodFeaturesToTrack(ga, 400, 0.01, 8, mask=mask)
+        if pts is None or len(pts) < 8:
+            out.append((np.nan, np.nan, np.nan))
+            continue
+        nxt, st, _ = cv2.calcOpticalFlowPyrLK(ga, gb, pts, None, winSize=(21, 21), maxLevel=4)
+        ok = st.ravel() == 1
+        m, _ = cv2.estimateAffinePartial2D(pts[ok], nxt[ok], method=cv2.RANSAC,
+                                           ransacReprojThreshold=1.0)
+        if m is None:
+            out.append((np.nan, np.nan, np.nan))
+            continue
+        # Shift of the frame's centre, and the rotation.
+        c = np.array([(w - 1) / 2, (h - 1) / 2])
+        moved = m[:, :2] @ c + m[:, 2]
+        out.append((*(moved - c), np.arctan2(m[1, 0], m[0, 0])))
+    arr = np.array(out, dtype=np.float64)
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any() and (~bad).any():  # bridge a failed pair with its neighbours
+        for k in range(3):
+            arr[bad, k] = np.interp(np.flatnonzero(bad), np.flatnonzero(~bad), arr[~bad, k])
+    return arr
+
+
+def high_pass(path: np.ndarray, seconds: float = 1.0) -> np.ndarray:
+    """Return a path less its Gaussian low-pass of ``seconds`` (standard deviation)."""
+    return path - gaussian_filter1d(path, seconds * FPS, axis=0, mode="nearest")
+
+
+# ---------------------------------------------------------------- simulated clips
+
+def handheld(kind: str) -> tuple[Motion, Motion]:
+    """(actual motion, its intended smooth part) of a simulated hand-held clip."""
+    t = np.arange(-2.0, 100.0, 0.25)
+    sec = t / FPS
+    shake = Motion("shake")(t)
+    if kind == "shake":
+        smooth = np.zeros((t.size, 2))
+        actual = shake
+    elif kind == "walk":  # 2 px/frame forward drift, a 2 Hz bob and a 1 Hz sway
+        smooth = np.stack([2.0 * t, np.zeros_like(t)], axis=1)
+        bob = np.stack([3.0 * np.sin(2 * np.pi * 1.0 * sec), 5.0 * np.abs(
+            np.sin(2 * np.pi * 1.0 * sec)) - 3.2], axis=1)
+        actual = smooth + bob + 0.5 * shake
+    elif kind == "pan + shake":
+        smooth = np.stack([5.0 * t, 1.0 * t], axis=1)
+        actual = smooth + shake
+    else:
+        raise ValueError(kind)
+    spline = Motion("spline", knots=(tuple(t), tuple(actual[:, 0]), tuple(actual[:, 1])))
+    ideal = Motion("spline", knots=(tuple(t), tuple(smooth[:, 0]), tuple(smooth[:, 1])))
+    return spline, ideal
+
+
+def _psnr(a: np.ndarray, b: np.ndarray) -> float:
+    h, w = a.shape[:2]
+    sl = (slice(int(0.1 * h), int(0.9 * h)), slice(int(0.1 * w), int(0.9 * w)))
+    err = np.mean((a[sl].astype(np.float64) - b[sl].astype(np.float64)) ** 2)
+    return float(10 * np.log10(255.0 ** 2 / max(err, 1e-12)))
+
+
+def rs_psnr(outputs: list[np.ndarray], truths: list[np.ndarray], motion_json: Path) -> float:
+    """Mean PSNR against the truth shown through each frame's reframe (central 80 %)."""
+    traj = Trajectory.load(motion_json)
+    vals = []
+    for out, truth, fm in zip(outputs, truths, traj.frames, strict=True):
+        h, w = truth.shape[:2]
+        grid = pixel_grid(h, w)
+        expected = apply_maps(truth, reframe_maps(grid, fm.reframe, (h, w)))
+        vals.append(_psnr(out, expected))
+    return float(np.mean(vals))
+
+
+def simulated(work: Path, missing: str | None, frames: int) -> None:
+    print(f"1. simulated hand-held clips: 640x360, readout 0.8, {frames} frames, crop "
+          f"{CROP:.0%} for both; residual jitter (px RMS, high-passed at 1 s) and "
+          "frame-to-frame error (px RMS)")
+    head = f"{'clip':14}{'input':>16}{'vid.stab s=10':>16}{'vid.stab s=27':>16}{'unjello':>16}"
+    print(head + "   RS PSNR (dB): corrected / corrected+stabilised")
+    timing = SensorTiming(0.8)
+    scene = data.astronaut()
+    zoom = 1.0 / (1.0 - CROP)
+    for kind in ("shake", "walk", "pan + shake"):
+        actual, ideal = handheld(kind)
+        sims = list(simulate(scene, actual, timing, frames, size=(640, 360)))
+        bgr = [cv2.cvtColor(s.rolling, cv2.COLOR_RGB2BGR) for s in sims]
+        truth = [cv2.cvtColor(s.truth, cv2.COLOR_RGB2BGR) for s in sims]
+        src = _write(bgr, work / kind.replace(" ", "_") / "in")
+        # The intended inter-frame motion of the content at the frames' reference times.
+        tref = np.array([timing.reference_time(360, s.motion.start) for s in sims])
+        ideal_steps = np.diff(ideal(tref), axis=0)
+
+        def jitter(outs: list[np.ndarray], scale: float,
+                   ideal_steps: np.ndarray = ideal_steps) -> tuple[float, float]:
+            steps = interframe_motion(outs)[:, :2]
+            resid = steps - scale * ideal_steps
+            path = np.cumsum(resid, axis=0)
+            return (float(np.sqrt((high_pass(path) ** 2).sum(axis=1).mean())),
+                    float(np.sqrt((resid ** 2).sum(axis=1).mean())))
+
+        cells = [jitter(bgr, 1.0)]
+        for smoothing in (10, 27):
+            if missing is not None:
+                cells.append((np.nan, np.nan))
+                continue
+            dst = work / kind.replace(" ", "_") / f"vidstab{smoothing}"
+            run_vidstab(src, dst, smoothing=smoothing, zoom=100 * (zoom - 1))
+            cells.append(jitter(_frames(dst), zoom))
+        plain = work / kind.replace(" ", "_") / "plain"
+        run_unjello(src, plain, "--readout", "0.8")
+        stab = work / kind.replace(" ", "_") / "stab"
+        run_unjello(src, stab, "--readout", "0.8", "--stabilize", "--crop", str(CROP))
+        out = _frames(stab)
+        cells.append(jitter(out, zoom))
+        rs = (rs_psnr(_frames(plain), truth, plain.with_suffix(".json")),
+              rs_psnr(out, truth, stab.with_suffix(".json")))
+        print(f"{kind:14}" + "".join(f"{a:9.2f} / {b:4.2f}" if np.isfinite(a) else
+                                     f"{'skipped':>16}" for a, b in cells)
+              + f"   {rs[0]:.2f} / {rs[1]:.2f}", flush=True)
+    if missing is None:
+        print("   (vid.stab s=N: smoothing=N, a window of 2N+1 frames; 27 is unjello's "
+              "window at --smoothness 0.3)")
+    else:
+        print(f"   vid.stab skipped: {missing}")
+
+
+# ---------------------------------------------------------------- real clips
+
+def _read_video(path: Path, limit: int) -> list[np.ndarray]:
+    cap = cv2.VideoCapture(str(path))
+    out = []
+    while len(out) < limit:
+        ok, f = cap.read()
+        if not ok:
+            break
+        out.append(f)
+    return out
+
+
+def hf_energy(frames: list[np.ndarray]) -> tuple[float, float]:
+    """Return the high-frequency RMS of the inter-frame motion: translation, rotation.
+
+    The rotation is given as px at the frame's corner.
+    """
+    m = interframe_motion(frames)
+    h, w = frames[0].shape[:2]
+    path = np.cumsum(m, axis=0)
+    hp = high_pass(path)
+    corner = 0.5 * np.hypot(w, h)
+    return (float(np.sqrt((hp[:, :2] ** 2).sum(axis=1).mean())),
+            float(np.sqrt((hp[:, 2] ** 2).mean())) * corner)
+
+
+def real(work: Path, missing: str | None, frames: int) -> None:
+    print(f"\n2. real clips, first {frames} frames: high-frequency motion of the output "
+          "(px RMS above ~1 Hz: translation / rotation at the corner); lower is steadier")
+    print(f"{'clip':26}{'input':>16}{'vid.stab':>16}{'unjello':>16}   unjello's zoom")
+    clips = {"phone in a car (reshape)": SHARED / "sequences" / "phone_gyro" / "reshape",
+             "GoPro HERO5 on a Karma": SHARED / "sequences" / "gopro_gpmf" / "karma.mp4",
+             "GoPro Max, hero mode": SHARED / "sequences" / "gopro_gpmf" / "max-heromode.mp4"}
+    for name, path in clips.items():
+        if not path.exists():
+            print(f"{name:26} skipped: {path} is absent")
+            continue
+        if path.is_dir():
+            def key(p: Path) -> list:
+                return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
+            files = sorted(path.glob("*.jpg"), key=key)[:frames]
+            imgs = [cv2.imread(str(p)) for p in files]
+            extra = ["--readout", "15ms"]  # the publisher's 33.3 ms span is at 30 fps: 1.0
+        else:
+            imgs = _read_video(path, frames)
+            extra = []
+        src = _write(imgs, work / name.split()[0].lower() / "in")
+        cells = [hf_energy(imgs)]
+        if missing is not None:
+            cells.append((np.nan, np.nan))
+        else:
+            dst = work / name.split()[0].lower() / "vidstab"
+            run_vidstab(src, dst)
+            cells.append(hf_energy(_frames(dst)))
+        stab = work / name.split()[0].lower() / "stab"
+        run_unjello(src, stab, "--stabilize", *extra)
+        cells.append(hf_energy(_frames(stab)))
+        zooms = [f.get("zoom", 1.0) for f in json.loads(
+            stab.with_suffix(".json").read_text())["frames"]]
+        print(f"{name:26}" + "".join(f"{a:9.2f} / {b:4.2f}" if np.isfinite(a) else
+                                     f"{'skipped':>16}" for a, b in cells)
+              + f"   {min(zooms):.3f}-{max(zooms):.3f}", flush=True)
+
+
+def speed(work: Path) -> None:
+    print("\n3. speed, 1080p (60 frames of a simulated hand-held pan, x264): seconds")
+    actual, _ = handheld("pan + shake")
+    sims = simulate(data.astronaut(), actual, SensorTiming(0.8), 60, size=(1920, 1080))
+    src = work / "speed_in"
+    _write([cv2.cvtColor(s.rolling, cv2.COLOR_RGB2BGR) for s in sims], src)
+    clip = work / "speed.mp4"
+    subprocess.run(["ffmpeg", "-v", "error", "-y", "-framerate", "30", "-i",
+                    str(src / "%05d.png"), "-c:v", "libx264", "-crf", "18", "-pix_fmt",
+                    "yuv420p", str(clip)], check=True)
+    times = {}
+    for label, extra in (("without --stabilize", []), ("with --stabilize", ["--stabilize"])):
+        t0 = time.perf_counter()
+        subprocess.run([*UNJELLO, "correct", str(clip), "-o", str(work / "out.mp4"), "-y",
+                        "--readout", "0.8", *extra], check=True, capture_output=True)
+        times[label] = time.perf_counter() - t0
+    a, b = times.values()
+    print("   " + ", ".join(f"{k}: {v:.1f} s" for k, v in times.items())
+          + f"; ratio {b / a:.3f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=90, help="frames of each clip")
+    ap.add_argument("--speed", action="store_true", help="also time 1080p (needs ffmpeg)")
+    ap.add_argument("--skip-real", action="store_true")
+    ap.add_argument("--skip-simulated", action="store_true")
+    args = ap.parse_args()
+    missing = vidstab_missing()
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        if not args.skip_simulated:
+            simulated(work, missing, args.frames)
+        if not args.skip_real:
+            real(work, missing, args.frames)
+        if args.speed:
+            if shutil.which("ffmpeg") is None:
+                print("\n3. speed skipped: no ffmpeg to encode the 1080p clip")
+            else:
+                speed(work)
+
+
+if __name__ == "__main__":
+    main()

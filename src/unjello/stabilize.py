@@ -1,0 +1,299 @@
+"""Stabilisation in the same warp: render each frame at a smoothed camera path.
+
+The rolling-shutter correction shows frame ``n`` as it was at its reference time
+``t_ref(n)``; its content then sits where the camera's image path ``P`` put it,
+``P(t_ref(n))``. :class:`Stabilizer` measures that path from the frames' own per-scanline
+velocities (what every method estimates: ``P`` is the integral of ``v'(t)``, the same
+integral as eq. 26), smooths it, and gives each frame a :class:`Reframe` -- a shift that
+moves the content to the smooth path and a zoom about the centre that keeps the borders
+filled. The warper composes it with the correction's backward map, so the picture is
+resampled once (:func:`unjello.warp.reframe_maps`).
+
+The smooth path
+---------------
+A robust Whittaker smoother (:func:`smooth_path`): the path that stays closest to the
+camera's under a penalty on its acceleration, the penalty turning from quadratic to
+absolute for the few large accelerations. Shake (many small accelerations) is smoothed
+as a Gaussian of ``smoothness`` seconds would smooth it; a constant velocity is kept
+exactly; a pan that starts or stops turns the path sharply instead of being lagged by a
+window, so it needs no large crop. Each frame's smooth position is solved over the
+frames within three ``smoothness`` of it -- a bounded look-ahead, so the clip is still
+streamed -- and beyond the clip's ends the path goes on along the line fitted to the
+frames there. The shift of a frame,
+``S(n) - P(n)``, is limited softly (``m tanh(x / m)``) to the margin ``m`` the crop
+leaves, so the limit never jerks.
+
+The crop
+--------
+``'none'``: no zoom (what the shift uncovers is filled as ``fill`` says, from the
+neighbouring frames where the dense method knows them); a fraction ``f``: a constant zoom
+``1 / (1 - f)``; ``'auto'``: per frame, the least zoom that keeps its shifted picture
+filled, raised to the largest any frame within half a ``smoothness`` needs and
+averaged over those frames, so it changes gradually and is never short (at most :data:`MAX_CROP`).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import linalg
+
+from .errors import SettingsError
+from .motion.camera import ROBUST_KNEE, second_difference_band
+from .timing import SensorTiming
+from .trajectory import FrameMotion, Reframe
+
+__all__ = ["StabilizeConfig", "Stabilizer", "reference_step", "smooth_path",
+           "MAX_CROP", "crop_request"]
+
+#: The most the automatic crop takes from each dimension (fraction of the frame), and
+#: the margin of ``crop='none'`` for the shift.
+MAX_CROP = 0.15
+
+
+def crop_request(value: object) -> str | float:
+    """Read a crop setting: ``'auto'``, ``'none'`` or a fraction in [0, 0.5).
+
+    Examples
+    --------
+    >>> crop_request("0.1"), crop_request("auto")
+    (0.1, 'auto')
+    """
+    if isinstance(value, str) and value.strip().lower() in ("auto", "none"):
+        return value.strip().lower()
+    try:
+        f = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise SettingsError(f"crop must be auto, none or a fraction such as 0.1, "
+                            f"not {value!r}") from None
+    if not 0.0 <= f < 0.5:
+        raise SettingsError(f"crop must be a fraction from 0 to 0.5, not {value!r}")
+    return f
+
+
+@dataclass(frozen=True)
+class StabilizeConfig:
+    """Settings of the stabilisation.
+
+    Parameters
+    ----------
+    enabled : bool
+        Stabilise while correcting.
+    smoothness : float
+        Standard deviation of the Gaussian that smooths the camera path, seconds.
+    crop : {'auto', 'none'} or float
+        How the borders a shift uncovers are kept out of the picture (module notes).
+    """
+
+    enabled: bool = False
+    smoothness: float = 0.3
+    crop: str | float = "auto"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "crop", crop_request(self.crop))
+        if not (isinstance(self.smoothness, (int, float)) and 0 < self.smoothness <= 10):
+            raise SettingsError(f"smoothness must be from 0 to 10 seconds, "
+                                f"not {self.smoothness!r}")
+
+
+def reference_step(prev: FrameMotion, cur: FrameMotion, timing: SensorTiming) -> np.ndarray:
+    """Return the camera's image motion from ``prev``'s reference time to ``cur``'s, px.
+
+    The integral of the scanline velocity ``v'(t)`` (eq. 26's integrand) from
+    ``t_ref(prev)`` to ``t_ref(cur)``: the second half of ``prev``'s rows, the blanking
+    between the frames (the velocity interpolated linearly across it), the first half of
+    ``cur``'s.
+
+    Examples
+    --------
+    A constant 5 px per frame interval, frames one interval apart:
+
+    >>> v = np.tile([5.0, 0.0], (10, 1))
+    >>> a, b = (FrameMotion(i, float(i), np.zeros((10, 2)), v) for i in (0, 1))
+    >>> reference_step(a, b, SensorTiming(0.6)).round(6).tolist()
+    [5.0, 0.0]
+    """
+    h = cur.velocity.shape[0]
+    t = np.concatenate([timing.row_times(h, prev.start), timing.row_times(h, cur.start)])
+    v = np.concatenate([prev.velocity, cur.velocity])
+    a, b = timing.reference_time(h, prev.start), timing.reference_time(h, cur.start)
+    grid = np.linspace(a, b, 129)
+    vel = np.stack([np.interp(grid, t, v[:, k]) for k in range(2)], axis=1)
+    return (0.5 * (vel[1:] + vel[:-1]) * np.diff(grid)[:, None]).sum(axis=0)
+
+
+def _extended(path: np.ndarray, lo: int, hi: int, last: int | None, span: int
+              ) -> np.ndarray:
+    """``path[lo:hi]``, continued before sample 0 and (once known) after ``last``.
+
+    Beyond an end the path goes on along the straight line fitted to its ``span``
+    samples there: a pan that starts or ends with the clip goes on, and the end frames'
+    own shake is not taken for the path (a smoother's free end, or an odd reflection
+    about the end frame, keeps much of it: the 60-frame shake of
+    ``benchmarks/stabilise.py`` kept 0.83 px of high-frequency motion with a free end,
+    0.53 px continued along lines fitted over three ``smoothness``).
+    """
+    idx = np.arange(lo, hi)
+    end = last if last is not None else len(path) - 1
+    out = np.empty((idx.size, 2))
+    inside = (idx >= 0) & (idx <= end)
+    out[inside] = path[idx[inside]]
+    for beyond, ks in ((idx < 0, np.arange(min(span, end + 1))),
+                       (idx > end, np.arange(max(0, end + 1 - span), end + 1))):
+        if beyond.any():
+            if ks.size < 2:
+                out[beyond] = path[ks[0]]
+            else:
+                slope, offset = np.polyfit(ks, path[ks], 1)
+                out[beyond] = np.outer(idx[beyond], slope) + offset
+    return out
+
+
+def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarray:
+    """Return the smooth camera path through ``path``: a robust Whittaker smoother.
+
+    Minimises ``sum |S - P|^2 + stiffness sum r_k |S_{k+1} - 2 S_k + S_{k-1}|^2`` (a
+    penalty on the path's acceleration, as the trajectory solve's,
+    :func:`unjello.motion.camera.solve_camera_trajectory`), with ``rounds`` of
+    reweighting that make an acceleration beyond
+    :data:`~unjello.motion.camera.ROBUST_KNEE` times the median cost its size rather
+    than its square: a pan that starts or stops turns the path sharply, where a
+    low-pass filter would lag it by a whole window (and need a large crop), while the
+    shake, many small accelerations, is smoothed away. Its ends are free: the path goes
+    on straight there.
+
+    Parameters
+    ----------
+    path : ndarray of shape (n, 2)
+    stiffness : float
+        Weight of the acceleration penalty: ``(sigma / 1.18) ** 4`` smooths like a
+        Gaussian of ``sigma`` samples (the same half-power frequency).
+    rounds : int
+
+    Examples
+    --------
+    A pan is kept; a pan from still keeps its corner within a few pixels:
+
+    >>> p = np.stack([3.0 * np.arange(40), np.zeros(40)], axis=1)
+    >>> bool(np.allclose(smooth_path(p, 1e4), p, atol=1e-6))
+    True
+    >>> q = np.stack([8.0 * np.maximum(np.arange(60) - 30, 0), np.zeros(60)], axis=1)
+    >>> bool(np.abs(smooth_path(q, 1e4) - q).max() < 4)
+    True
+    """
+    n = len(path)
+    if n < 3:
+        return path.astype(np.float64).copy()
+    smooth = path.astype(np.float64)
+    relief = np.ones(n - 2)
+    for r in range(rounds + 1):
+        if rounds:
+            # The first weights come from the path itself, where a corner is one sharp
+            # acceleration (a smoothed path spreads it like shake, and reweighting from
+            # it alone took 30 rounds to turn a corner: 28 -> 3 px).
+            accel = np.linalg.norm(np.diff(smooth, 2, axis=0), axis=1)
+            knee = max(ROBUST_KNEE * float(np.median(accel)), 1e-9)
+            relief = np.minimum(relief, knee / (accel + 1e-12)) if r else np.minimum(
+                1.0, knee / (accel + 1e-12))
+        band = stiffness * second_difference_band(n, relief)
+        band[2] += 1.0
+        smooth = linalg.solveh_banded(band, path.astype(np.float64))
+        if r == rounds or not rounds:
+            break
+    return smooth
+
+
+class Stabilizer:
+    """Give each frame's motion the :class:`Reframe` that puts it on a smooth camera path.
+
+    Frames go in, in order, as the motion method emits them; they come out, reframed,
+    once the frames within the smoothing window after them are known (or at
+    :meth:`flush`): a look-ahead of three ``smoothness``, four for the automatic crop.
+
+    Parameters
+    ----------
+    config : StabilizeConfig
+    timing : SensorTiming
+        Readout and reference of the frames' velocities.
+    size : tuple of int
+        ``(width, height)`` of the frames, top-bottom orientation.
+    fps : float
+        Frame rate (``smoothness`` is in seconds).
+    """
+
+    def __init__(self, config: StabilizeConfig, timing: SensorTiming, size: tuple[int, int],
+                 fps: float) -> None:
+        self.timing = timing
+        self.size = np.array(size, dtype=np.float64)
+        sigma = max(config.smoothness * fps, 1.0)
+        self._stiffness = (sigma / 1.18) ** 4
+        #: Frames each side of a frame whose path decides its smooth position.
+        self.radius = int(np.ceil(3.0 * sigma))
+        crop = config.crop
+        self._auto = crop == "auto"
+        most = 1.0 / (1.0 - (MAX_CROP if crop in ("auto", "none") else float(crop)))
+        #: What a shift may use of the frame: the crop's margin (auto: the largest).
+        self.margin = 0.5 * self.size * (1.0 - 1.0 / most)
+        self.zoom = 1.0 if crop == "none" else most
+        # The automatic zoom: the largest need within zr frames, averaged over zr frames.
+        self._zr = max(1, int(np.ceil(sigma / 2))) if self._auto else 0
+        self.lookahead = self.radius + 2 * self._zr
+        self._path: list[np.ndarray] = []
+        self._step = np.zeros(2)
+        self._shifts: list[np.ndarray] = []
+        self._needs: list[float] = []
+        self._held: deque[FrameMotion] = deque()
+        self._prev: FrameMotion | None = None
+        self._done = 0
+
+    def push(self, motions: list[FrameMotion]) -> list[FrameMotion]:
+        """Add frames' motions; return those now reframed, in order."""
+        for fm in motions:
+            if self._prev is None:
+                self._path.append(np.zeros(2))
+            else:
+                # A frame whose motion is unknown keeps the camera's last step.
+                if fm.ok and self._prev.ok:
+                    self._step = reference_step(self._prev, fm, self.timing)
+                self._path.append(self._path[-1] + self._step)
+            self._prev = fm
+            self._held.append(fm)
+        return self._ready(final=False)
+
+    def flush(self) -> list[FrameMotion]:
+        """Reframe the frames still held at the end of the clip."""
+        return self._ready(final=True)
+
+    def _ready(self, final: bool) -> list[FrameMotion]:
+        n = len(self._path)
+        path = np.array(self._path)
+        # Shifts are final once the smoothing window after them is known.
+        while len(self._shifts) < n and (final or len(self._shifts) + self.radius < n):
+            k = len(self._shifts)
+            window = _extended(path, k - self.radius, k + self.radius + 1,
+                               n - 1 if final else None, self.radius)
+            shift = smooth_path(window, self._stiffness)[self.radius] - path[k]
+            m = np.maximum(self.margin, 1e-6)
+            self._shifts.append(m * np.tanh(shift / m))
+            self._needs.append(float(1.0 / max(1.0 - (2.0 * np.abs(self._shifts[-1])
+                                                      / self.size).max(), 1e-3)))
+        out = []
+        while self._held and (final or self._done + self.lookahead < n):
+            fm = self._held.popleft()
+            shift = self._shifts[self._done]
+            out.append(replace(fm, reframe=Reframe((float(shift[0]), float(shift[1])),
+                                                   self._zoom_at(self._done))))
+            self._done += 1
+        return out
+
+    def _zoom_at(self, n: int) -> float:
+        """Frame ``n``'s zoom: constant, or (auto) the smoothed envelope of the needs."""
+        if not self._auto:
+            return self.zoom
+        r, hi = self._zr, len(self._needs) - 1
+        ks = [k for k in range(n - r, n + r + 1) if 0 <= k <= hi]
+        envelope = np.array([max(self._needs[max(0, k - r):min(hi, k + r) + 1]) for k in ks])
+        w = np.exp(-0.5 * ((np.array(ks) - n) / max(r / 2.0, 0.5)) ** 2)
+        return float(min(self.zoom, w @ envelope / w.sum()))
