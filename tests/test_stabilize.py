@@ -173,10 +173,30 @@ def test_cli(tmp_path, shaky):
     for i, s in enumerate(shaky[:12]):
         write_image(src / f"f{i:03d}.png", s.rolling)
     res = run("correct", src, "-o", tmp_path / "out", "--readout", "0.8", "--stabilize",
-              "--crop", "0.1", "--motion-out", tmp_path / "m.json")
+              "--crop", "0.1", "--motion-out", tmp_path / "m.json", "--json")
     assert res.returncode == 0, res.stderr
+    said = json.loads(res.stdout)["stabilized"]
+    assert said["zoom"] == pytest.approx([1 / 0.9, 1 / 0.9], abs=1e-3)
+    assert "stabilised: camera path smoothed over 0.3 s" in res.stderr
     frames = json.loads((tmp_path / "m.json").read_text())["frames"]
     assert len(frames) == 12 and all("shift" in f for f in frames[1:])
     line = clean_failure(run("correct", src, "-o", tmp_path / "out2", "--stabilize",
                              "--crop", "lots"))
     assert "crop" in line
+
+
+def test_plot_shows_the_camera_path_and_the_smoothed_one(stabilised, tmp_path):
+    from unjello.exports import plot_trajectory
+    from unjello.io.frames import read_image
+    from unjello.stabilize import camera_path
+
+    _, traj = stabilised
+    plot_trajectory(traj, tmp_path / "p.png")
+    plain = Trajectory(traj.timing, traj.size, method="dense",
+                       frames=[FrameMotion(f.index, f.start, f.displacement, f.velocity)
+                               for f in traj.frames])
+    plot_trajectory(plain, tmp_path / "q.png")
+    # A third panel (9 inches high instead of 6).
+    assert read_image(tmp_path / "p.png").shape[0] > 1.4 * read_image(tmp_path / "q.png").shape[0]
+    path = camera_path(traj.frames, TIMING)
+    assert path.shape == (len(traj.frames), 2) and not path[0].any()

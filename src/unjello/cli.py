@@ -215,6 +215,17 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
     if entering > 0.1:
         log(f"{100 * entering:.0f}% of the pixels show content entering the frame, which no "
             "neighbour saw: they take the motion of their surroundings")
+    stabilised = None
+    if config.stabilize.enabled and len(traj):
+        zooms = [f.reframe.zoom for f in traj.frames]
+        shifts = np.abs([f.reframe.shift for f in traj.frames]).max(axis=0)
+        stabilised = {"smoothness": config.stabilize.smoothness,
+                      "crop": config.stabilize.crop,
+                      "zoom": [round(min(zooms), 4), round(max(zooms), 4)],
+                      "largest_shift": [round(float(v), 2) for v in shifts]}
+        log(f"stabilised: camera path smoothed over {config.stabilize.smoothness:g} s; zoom "
+            f"{min(zooms):.3f}-{max(zooms):.3f}; shifts up to {shifts[0]:.1f} px across, "
+            f"{shifts[1]:.1f} px along the scan (top-bottom orientation)")
     if as_json:
         click.echo(json.dumps({
             "input": str(input), "output": str(output), "frames": len(traj),
@@ -229,7 +240,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "spun_frames": [f.index for f in traj.frames if f.spun > 0],
             "confidence": [round(f.confidence, 3) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
-            "messages": messages}))
+            "stabilized": stabilised, "messages": messages}))
     elif not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g} "
                    f"({decided['sources']['readout']}), "

@@ -16,6 +16,7 @@ from .io.frames import write_image
 from .io.sink import FrameSink, remove, replace, temp_path
 from .io.source import FrameSource
 from .io.video import EncodeOptions, VideoWriter
+from .stabilize import camera_path
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import frame_maps, resize_maps
@@ -109,7 +110,8 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
     """Plot per-scanline displacement and velocity over time, like the paper's Fig. 6.
 
     Each frame's scanlines are drawn at their imaging times ``t_n + rho r / h``; dashed
-    lines mark the frame starts.
+    lines mark the frame starts. A stabilised motion gets a third panel: the camera's
+    path (:func:`unjello.stabilize.camera_path`) and the smoothed one the output shows.
 
     Parameters
     ----------
@@ -123,7 +125,9 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True, constrained_layout=True)
+    stabilised = any(not f.reframe.identity for f in traj.frames)
+    fig, axes = plt.subplots(3 if stabilised else 2, 1, figsize=(10, 9 if stabilised else 6),
+                             sharex=True, constrained_layout=True)
     colors = {"x": "tab:blue", "y": "tab:orange"}
     for i, f in enumerate(traj.frames):
         h = f.displacement.shape[0]
@@ -136,7 +140,18 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
             ax.axvline(f.start, color="0.7", lw=0.6, ls="--")
     axes[0].set_ylabel("displacement from the\nreference scanline (px)")
     axes[1].set_ylabel("velocity (px / frame)")
-    axes[1].set_xlabel("time (frame intervals); dashed: frame starts")
+    if stabilised:
+        h = traj.frames[0].displacement.shape[0]
+        t_ref = [traj.timing.reference_time(h, f.start) for f in traj.frames]
+        actual = camera_path(traj.frames, traj.timing)
+        shown = actual + np.array([f.reframe.shift for f in traj.frames])
+        for k, name in enumerate("xy"):
+            axes[2].plot(t_ref, actual[:, k], color=colors[name], lw=1.0, label=f"{name}")
+            axes[2].plot(t_ref, shown[:, k], color=colors[name], lw=2.0, ls="--",
+                         label=f"{name}, stabilised")
+        axes[2].set_ylabel("camera path at the\nreference times (px)")
+        axes[2].legend(loc="upper right")
+    axes[-1].set_xlabel("time (frame intervals); dashed: frame starts")
     axes[0].legend(loc="upper right")
     axes[0].set_title(f"unjello motion ({traj.method or 'unknown method'}): readout "
                       f"{traj.timing.readout:.3f} of the frame interval, "

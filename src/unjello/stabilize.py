@@ -45,7 +45,7 @@ from .motion.camera import ROBUST_KNEE, second_difference_band
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Reframe
 
-__all__ = ["StabilizeConfig", "Stabilizer", "reference_step", "smooth_path",
+__all__ = ["StabilizeConfig", "Stabilizer", "camera_path", "reference_step", "smooth_path",
            "MAX_CROP", "crop_request"]
 
 #: The most the automatic crop takes from each dimension (fraction of the frame), and
@@ -122,6 +122,20 @@ def reference_step(prev: FrameMotion, cur: FrameMotion, timing: SensorTiming) ->
     grid = np.linspace(a, b, 129)
     vel = np.stack([np.interp(grid, t, v[:, k]) for k in range(2)], axis=1)
     return (0.5 * (vel[1:] + vel[:-1]) * np.diff(grid)[:, None]).sum(axis=0)
+
+
+def camera_path(frames: list[FrameMotion], timing: SensorTiming) -> np.ndarray:
+    """Return the camera's image path at each frame's reference time, px, from frame 0.
+
+    The sum of :func:`reference_step`; a frame whose motion is unknown (``ok`` false)
+    keeps the last step. :class:`Stabilizer` builds the same path as frames arrive.
+    """
+    path, step = [np.zeros(2)], np.zeros(2)
+    for prev, cur in zip(frames[:-1], frames[1:], strict=True):
+        if prev.ok and cur.ok:
+            step = reference_step(prev, cur, timing)
+        path.append(path[-1] + step)
+    return np.array(path[:len(frames)])
 
 
 def _extended(path: np.ndarray, lo: int, hi: int, last: int | None, span: int
