@@ -271,7 +271,7 @@ def hf_energy(frames: list[np.ndarray]) -> tuple[float, float]:
             float(np.sqrt((hp[:, 2] ** 2).mean())) * corner)
 
 
-def real(work: Path, missing: str | None, frames: int) -> None:
+def real(work: Path, missing: str | None, frames: int, only: str = "") -> None:
     print(f"\n2. real clips, first {frames} frames: high-frequency motion of the output "
           "(px RMS above ~1 Hz: translation / rotation at the corner); lower is steadier")
     print(f"{'clip':26}{'input':>16}{'vid.stab':>16}{'unjello':>16}   unjello's zoom")
@@ -279,6 +279,8 @@ def real(work: Path, missing: str | None, frames: int) -> None:
              "GoPro HERO5 on a Karma": SHARED / "sequences" / "gopro_gpmf" / "karma.mp4",
              "GoPro Max, hero mode": SHARED / "sequences" / "gopro_gpmf" / "max-heromode.mp4"}
     for name, path in clips.items():
+        if only and only not in name:
+            continue
         if not path.exists():
             print(f"{name:26} skipped: {path} is absent")
             continue
@@ -287,7 +289,7 @@ def real(work: Path, missing: str | None, frames: int) -> None:
                 return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)]
             files = sorted(path.glob("*.jpg"), key=key)[:frames]
             imgs = [cv2.imread(str(p)) for p in files]
-            extra = ["--readout", "15ms"]  # the publisher's 33.3 ms span is at 30 fps: 1.0
+            extra = ["--readout", "1.0"]  # its publisher: a 33.3 ms span at 30 fps
         else:
             imgs = _read_video(path, frames)
             extra = []
@@ -338,6 +340,7 @@ def main() -> None:
     ap.add_argument("--speed", action="store_true", help="also time 1080p (needs ffmpeg)")
     ap.add_argument("--skip-real", action="store_true")
     ap.add_argument("--skip-simulated", action="store_true")
+    ap.add_argument("--only", default="", help="real clips whose name contains this")
     args = ap.parse_args()
     missing = vidstab_missing()
     with tempfile.TemporaryDirectory() as tmp:
@@ -345,7 +348,7 @@ def main() -> None:
         if not args.skip_simulated:
             simulated(work, missing, args.frames)
         if not args.skip_real:
-            real(work, missing, args.frames)
+            real(work, missing, args.frames, args.only)
         if args.speed:
             if shutil.which("ffmpeg") is None:
                 print("\n3. speed skipped: no ffmpeg to encode the 1080p clip")
