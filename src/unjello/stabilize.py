@@ -254,7 +254,8 @@ class Stabilizer:
         # The automatic zoom: the largest need within zr frames, averaged over zr frames.
         self._zr = max(1, int(np.ceil(sigma / 2))) if self._auto else 0
         self.lookahead = self.radius + 2 * self._zr
-        self._path: list[np.ndarray] = []
+        self._path = np.zeros((256, 2))  # grown by doubling: a view per call, no copy
+        self._n = 0
         self._step = np.zeros(2)
         self._shifts: list[np.ndarray] = []
         self._needs: list[float] = []
@@ -265,13 +266,14 @@ class Stabilizer:
     def push(self, motions: list[FrameMotion]) -> list[FrameMotion]:
         """Add frames' motions; return those now reframed, in order."""
         for fm in motions:
-            if self._prev is None:
-                self._path.append(np.zeros(2))
-            else:
+            if self._n == len(self._path):
+                self._path = np.concatenate([self._path, np.zeros_like(self._path)])
+            if self._prev is not None:
                 # A frame whose motion is unknown keeps the camera's last step.
                 if fm.ok and self._prev.ok:
                     self._step = reference_step(self._prev, fm, self.timing)
-                self._path.append(self._path[-1] + self._step)
+                self._path[self._n] = self._path[self._n - 1] + self._step
+            self._n += 1
             self._prev = fm
             self._held.append(fm)
         return self._ready(final=False)
@@ -281,8 +283,8 @@ class Stabilizer:
         return self._ready(final=True)
 
     def _ready(self, final: bool) -> list[FrameMotion]:
-        n = len(self._path)
-        path = np.array(self._path)
+        n = self._n
+        path = self._path[:n]
         # Shifts are final once the smoothing window after them is known.
         while len(self._shifts) < n and (final or len(self._shifts) + self.radius < n):
             k = len(self._shifts)
