@@ -31,7 +31,7 @@ from .motion.dense import DenseMethod
 from .motion.gyro import GyroLog, GyroMethod
 from .motion.paper import PaperMethod
 from .readout import estimate_readout_file
-from .stabilize import Stabilizer
+from .stabilize import Stabilizer, track
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
 from .warp import PictureWarper
@@ -113,6 +113,8 @@ class Corrector:
         self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
         self.fps = fps
         self._stabilizer: Stabilizer | None = None
+        self._luma: np.ndarray | None = None  # the previous frame's, when stabilising
+        self._count = 0  # pictures pushed
         self._held: deque[list[np.ndarray]] = deque()
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
 
@@ -134,7 +136,12 @@ class Corrector:
             if self._stabilizer is None:
                 self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
                                               (luma.shape[1], luma.shape[0]), self.fps)
-            motions = self._stabilizer.push(motions)
+            tracks = {}
+            if self._luma is not None:  # the roll, from points tracked between the frames
+                tracks[self._count] = track(self._luma, luma)
+            self._luma = luma
+            motions = self._stabilizer.push(motions, tracks)
+        self._count += 1
         return self._apply(motions)
 
     def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:

@@ -37,6 +37,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 from scipy import linalg
 
@@ -124,6 +125,54 @@ def reference_step(prev: FrameMotion, cur: FrameMotion, timing: SensorTiming) ->
     return (0.5 * (vel[1:] + vel[:-1]) * np.diff(grid)[:, None]).sum(axis=0)
 
 
+def track(prev: np.ndarray, cur: np.ndarray, width: int = 480) -> np.ndarray:
+    """Return corners of ``prev`` and where they are in ``cur``, ``(n, 4)``: x0, y0, x1, y1.
+
+    Shi-Tomasi corners tracked by pyramidal Lucas-Kanade on copies at most ``width``
+    wide, in pixels of the frames (grey, top-bottom orientation, 0-255); only what both
+    directions agree on (within half a pixel of the copy) is kept.
+    """
+    h, w = prev.shape[:2]
+    scale = min(1.0, width / w)
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    a, b = (cv2.resize(np.clip(f, 0, 255).astype(np.uint8), size, interpolation=cv2.INTER_AREA)
+            for f in (prev, cur))
+    pts = cv2.goodFeaturesToTrack(a, 300, 0.01, 8)
+    if pts is None or len(pts) < 8:
+        return np.zeros((0, 4))
+    fwd, ok1, _ = cv2.calcOpticalFlowPyrLK(a, b, pts, None, winSize=(21, 21), maxLevel=3)
+    back, ok2, _ = cv2.calcOpticalFlowPyrLK(b, a, fwd, None, winSize=(21, 21), maxLevel=3)
+    good = (ok1.ravel() == 1) & (ok2.ravel() == 1) & (
+        np.linalg.norm((back - pts).reshape(-1, 2), axis=1) < 0.5)
+    out = np.concatenate([pts.reshape(-1, 2), fwd.reshape(-1, 2)], axis=1)[good]
+    return (out + 0.5) / scale - 0.5
+
+
+def roll_step(points: np.ndarray, prev: FrameMotion, cur: FrameMotion) -> float | None:
+    """Return the camera's roll from ``prev`` to ``cur`` (radians), from tracked points.
+
+    Each point is first moved to where the correction puts it (``p = s - Delta(s_y)``,
+    eq. 26, per scanline): a rolling-shutter frame's skew is a shear, and a shear fitted
+    by a similarity reads as half its slope of rotation. Then a similarity is fitted with
+    RANSAC; None when fewer than 12 points agree.
+    """
+    if len(points) < 12:
+        return None
+    rows = np.arange(prev.displacement.shape[0], dtype=np.float64)
+
+    def corrected(xy: np.ndarray, fm: FrameMotion) -> np.ndarray:
+        d = np.stack([np.interp(xy[:, 1], rows, fm.displacement[:, k]) for k in range(2)],
+                     axis=1)
+        return (xy - d).astype(np.float32)
+
+    m, inliers = cv2.estimateAffinePartial2D(corrected(points[:, :2], prev),
+                                             corrected(points[:, 2:], cur),
+                                             method=cv2.RANSAC, ransacReprojThreshold=1.0)
+    if m is None or inliers is None or int(inliers.sum()) < 12:
+        return None
+    return float(np.arctan2(m[1, 0], m[0, 0]))
+
+
 def camera_path(frames: list[FrameMotion], timing: SensorTiming) -> np.ndarray:
     """Return the camera's image path at each frame's reference time, px, from frame 0.
 
@@ -151,7 +200,7 @@ def _extended(path: np.ndarray, lo: int, hi: int, last: int | None, span: int
     """
     idx = np.arange(lo, hi)
     end = last if last is not None else len(path) - 1
-    out = np.empty((idx.size, 2))
+    out = np.empty((idx.size, path.shape[1]))
     inside = (idx >= 0) & (idx <= end)
     out[inside] = path[idx[inside]]
     for beyond, ks in ((idx < 0, np.arange(min(span, end + 1))),
@@ -219,6 +268,16 @@ def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarr
     return smooth
 
 
+def _zoom_need(reframe: np.ndarray, size: np.ndarray) -> float:
+    """The least zoom whose view, shifted by ``reframe[:2]`` and turned by ``reframe[2]``,
+    stays inside a frame of ``size`` (w, h)."""
+    w, h = size
+    dx, dy, a = np.abs(reframe)
+    c, s = np.cos(a), np.sin(a)
+    need = max((w * c + h * s) / max(w - 2 * dx, 1e-3), (h * c + w * s) / max(h - 2 * dy, 1e-3))
+    return float(max(need, 1.0))
+
+
 class Stabilizer:
     """Give each frame's motion the :class:`Reframe` that puts it on a smooth camera path.
 
@@ -254,25 +313,45 @@ class Stabilizer:
         # The automatic zoom: the largest need within zr frames, averaged over zr frames.
         self._zr = max(1, int(np.ceil(sigma / 2))) if self._auto else 0
         self.lookahead = self.radius + 2 * self._zr
-        self._path = np.zeros((256, 2))  # grown by doubling: a view per call, no copy
+        # The path: x, y (px) and the roll (radians); grown by doubling, a view per call.
+        self._path = np.zeros((256, 3))
         self._n = 0
         self._step = np.zeros(2)
+        self._tracks: dict[int, np.ndarray] = {}
+        w, h = size
+        #: The roll a frame may be turned by: what uses half the crop's zoom at most.
+        self.max_angle = 0.5 * (most - 1.0) * min(w, h) / max(w, h)
         self._shifts: list[np.ndarray] = []
         self._needs: list[float] = []
         self._held: deque[FrameMotion] = deque()
         self._prev: FrameMotion | None = None
         self._done = 0
 
-    def push(self, motions: list[FrameMotion]) -> list[FrameMotion]:
-        """Add frames' motions; return those now reframed, in order."""
+    def push(self, motions: list[FrameMotion], tracks: dict[int, np.ndarray] | None = None
+             ) -> list[FrameMotion]:
+        """Add frames' motions; return those now reframed, in order.
+
+        Parameters
+        ----------
+        motions : list of FrameMotion
+        tracks : dict, optional
+            Frame index ``k`` -> :func:`track` from frame ``k - 1`` to ``k``, for the roll
+            (without, the roll is not stabilised).
+        """
+        self._tracks.update(tracks or {})
         for fm in motions:
             if self._n == len(self._path):
                 self._path = np.concatenate([self._path, np.zeros_like(self._path)])
             if self._prev is not None:
-                # A frame whose motion is unknown keeps the camera's last step.
+                # A frame whose motion is unknown keeps the camera's last step; a roll
+                # not measured is none.
+                roll = None
                 if fm.ok and self._prev.ok:
                     self._step = reference_step(self._prev, fm, self.timing)
-                self._path[self._n] = self._path[self._n - 1] + self._step
+                    pts = self._tracks.pop(fm.index, None)
+                    roll = roll_step(pts, self._prev, fm) if pts is not None else None
+                self._path[self._n, :2] = self._path[self._n - 1, :2] + self._step
+                self._path[self._n, 2] = self._path[self._n - 1, 2] + (roll or 0.0)
             self._n += 1
             self._prev = fm
             self._held.append(fm)
@@ -290,17 +369,21 @@ class Stabilizer:
             k = len(self._shifts)
             window = _extended(path, k - self.radius, k + self.radius + 1,
                                n - 1 if final else None, self.radius)
-            shift = smooth_path(window, self._stiffness)[self.radius] - path[k]
+            shift = smooth_path(window[:, :2], self._stiffness)[self.radius] - path[k, :2]
+            roll = smooth_path(window[:, 2:], self._stiffness)[self.radius, 0] - path[k, 2]
             m = np.maximum(self.margin, 1e-6)
-            self._shifts.append(m * np.tanh(shift / m))
-            self._needs.append(float(1.0 / max(1.0 - (2.0 * np.abs(self._shifts[-1])
-                                                      / self.size).max(), 1e-3)))
+            limited = np.append(m * np.tanh(shift / m),
+                                self.max_angle * np.tanh(roll / max(self.max_angle, 1e-9)))
+            self._shifts.append(limited)
+            self._needs.append(_zoom_need(limited, self.size))
         out = []
         while self._held and (final or self._done + self.lookahead < n):
             fm = self._held.popleft()
             shift = self._shifts[self._done]
             out.append(replace(fm, reframe=Reframe((float(shift[0]), float(shift[1])),
-                                                   self._zoom_at(self._done))))
+                                                   self._zoom_at(self._done),
+                                                   float(shift[2]))))
+            self._tracks.pop(fm.index, None)
             self._done += 1
         return out
 

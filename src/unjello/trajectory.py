@@ -23,7 +23,7 @@ object), ``folds`` (share where the applied map still folds or tears in blobs),
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``; when stabilised, ``shift`` ``[x, y]`` and ``zoom`` (the
-:class:`Reframe` the warp applied on top of the correction).
+:class:`Reframe` the warp applied on top of the correction), and ``angle`` (radians).
 """
 
 from __future__ import annotations
@@ -50,18 +50,20 @@ FIELD_STEP = 8
 class Reframe:
     """How a corrected frame is shown (stabilisation, :mod:`unjello.stabilize`).
 
-    Output pixel ``p`` shows the corrected frame at ``c + (p - c) / zoom - shift``, ``c``
-    the frame's centre; ``shift`` is in pixels of the full frame, top-bottom orientation.
-    The identity (no shift, zoom 1) is the plain correction.
+    Output pixel ``p`` shows the corrected frame at ``c + R(-angle) (p - c) / zoom - shift``,
+    ``c`` the frame's centre, ``R`` a rotation in pixel coordinates (x right, y down:
+    a positive angle turns x towards y); ``shift`` is in pixels of the full frame, and
+    everything in top-bottom orientation. The identity is the plain correction.
     """
 
     shift: tuple[float, float] = (0.0, 0.0)
     zoom: float = 1.0
+    angle: float = 0.0
 
     @property
     def identity(self) -> bool:
         """True when the frame is shown as corrected."""
-        return self.shift == (0.0, 0.0) and self.zoom == 1.0
+        return self.shift == (0.0, 0.0) and self.zoom == 1.0 and self.angle == 0.0
 
 
 @dataclass(frozen=True)
@@ -177,6 +179,7 @@ class FrameMotion:
         if not self.reframe.identity:
             d["shift"] = [round(float(v), 4) for v in self.reframe.shift]
             d["zoom"] = round(float(self.reframe.zoom), 6)
+            d["angle"] = round(float(self.reframe.angle), 7)
         if self.field is not None:
             h, w = self.field.shape[:2]
             # The field's grid may be coarser than the frame (the dense method's working
@@ -212,7 +215,7 @@ class FrameMotion:
             spun=float(d.get("spun", 0.0)),
             field=field,
             reframe=Reframe(tuple(float(v) for v in d.get("shift", (0.0, 0.0))),  # type: ignore[arg-type]
-                            float(d.get("zoom", 1.0))),
+                            float(d.get("zoom", 1.0)), float(d.get("angle", 0.0))),
         )
 
 

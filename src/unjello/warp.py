@@ -334,8 +334,8 @@ def reframe_maps(maps: tuple[np.ndarray, np.ndarray], reframe: Reframe,
                  frame: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """Compose backward maps with a stabilisation's shift and zoom: one resampling.
 
-    Output pixel ``p`` shows the corrected frame at ``q = c + (p - c) / zoom - shift``
-    (:class:`~unjello.trajectory.Reframe`), and the corrected frame's pixel ``q`` comes
+    Output pixel ``p`` shows the corrected frame at ``q = c + R(-angle) (p - c) / zoom -
+    shift`` (:class:`~unjello.trajectory.Reframe`), and the corrected frame's pixel ``q`` comes
     from the source at ``maps(q)``; the composition ``maps(q)`` is what the picture is
     then sampled at, once. ``maps`` is interpolated as a displacement ``maps(q) - q``,
     held at the edges, so a ``q`` beyond the frame keeps the nearest displacement.
@@ -367,9 +367,14 @@ def reframe_maps(maps: tuple[np.ndarray, np.ndarray], reframe: Reframe,
     gh, gw = maps[0].shape
     sx, sy = gw / frame[1], gh / frame[0]
     gx, gy = pixel_grid(gh, gw)
-    z = np.float32(reframe.zoom)
-    qx = (gx - np.float32((gw - 1) / 2)) / z + np.float32((gw - 1) / 2 - reframe.shift[0] * sx)
-    qy = (gy - np.float32((gh - 1) / 2)) / z + np.float32((gh - 1) / 2 - reframe.shift[1] * sy)
+    # The rotation acts in frame pixels: on a grid scaled differently along x and y, its
+    # off-diagonal terms carry the ratio of the scales.
+    cos, sin = np.cos(reframe.angle) / reframe.zoom, np.sin(reframe.angle) / reframe.zoom
+    ux, uy = gx - np.float32((gw - 1) / 2), gy - np.float32((gh - 1) / 2)
+    qx = (np.float32(cos) * ux + np.float32(sin * sx / sy) * uy
+          + np.float32((gw - 1) / 2 - reframe.shift[0] * sx))
+    qy = (np.float32(-sin * sy / sx) * ux + np.float32(cos) * uy
+          + np.float32((gh - 1) / 2 - reframe.shift[1] * sy))
     disp = np.dstack([maps[0] - gx, maps[1] - gy])
     d = cv2.remap(disp, qx, qy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return qx + d[..., 0], qy + d[..., 1]

@@ -476,7 +476,12 @@ class DenseMethod:
         if not eqs:
             return None
         t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
-        step = self.timing.readout / self.config.grid
+        # At least 1/256 of a frame interval: the equations span an interval, so the
+        # solve's band is 1 / step samples wide and its cost grows with its square (at a
+        # readout of 0.05, 64 samples a readout made it 0.57 s a frame, now 0.01 s). Below a
+        # readout of 0.25 the readout then has fewer than 64 samples, which its little
+        # skew does not need.
+        step = max(self.timing.readout / self.config.grid, 1.0 / 256)
         smoothness = self.config.smoothness
         if len(eqs) == 1:
             smoothness = max(smoothness, self.config.pair_smoothness)
