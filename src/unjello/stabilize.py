@@ -140,8 +140,10 @@ def track(prev: np.ndarray, cur: np.ndarray, width: int = 480) -> np.ndarray:
     pts = cv2.goodFeaturesToTrack(a, 300, 0.01, 8)
     if pts is None or len(pts) < 8:
         return np.zeros((0, 4))
-    fwd, ok1, _ = cv2.calcOpticalFlowPyrLK(a, b, pts, None, winSize=(21, 21), maxLevel=3)
-    back, ok2, _ = cv2.calcOpticalFlowPyrLK(b, a, fwd, None, winSize=(21, 21), maxLevel=3)
+    fwd, ok1, _ = cv2.calcOpticalFlowPyrLK(a, b, pts, np.empty(0), winSize=(21, 21),
+                                           maxLevel=3)
+    back, ok2, _ = cv2.calcOpticalFlowPyrLK(b, a, fwd, np.empty(0), winSize=(21, 21),
+                                            maxLevel=3)
     good = (ok1.ravel() == 1) & (ok2.ravel() == 1) & (
         np.linalg.norm((back - pts).reshape(-1, 2), axis=1) < 0.5)
     out = np.concatenate([pts.reshape(-1, 2), fwd.reshape(-1, 2)], axis=1)[good]
@@ -269,8 +271,11 @@ def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarr
 
 
 def _zoom_need(reframe: np.ndarray, size: np.ndarray) -> float:
-    """The least zoom whose view, shifted by ``reframe[:2]`` and turned by ``reframe[2]``,
-    stays inside a frame of ``size`` (w, h)."""
+    """Return the least zoom that keeps a reframed view inside the frame.
+
+    The view is shifted by ``reframe[:2]`` and turned by ``reframe[2]``; ``size`` is the
+    frame's (w, h).
+    """
     w, h = size
     dx, dy, a = np.abs(reframe)
     c, s = np.cos(a), np.sin(a)
