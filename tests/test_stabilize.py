@@ -220,7 +220,8 @@ def test_roll_is_taken_out(scene):
     def rolls(pictures):
         grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY).astype(np.float32) for f in pictures]
         steps = [roll_step(track(a, b), FrameMotion(0, 0.0, zero, zero),
-                           FrameMotion(1, 1.0, zero, zero)) for a, b in zip(grey[:-1], grey[1:], strict=True)]
+                           FrameMotion(1, 1.0, zero, zero))
+                 for a, b in zip(grey[:-1], grey[1:], strict=True)]
         return np.sqrt(np.mean(np.square(steps)))
 
     # The steps are measured as the frames were made.
