@@ -188,7 +188,6 @@ def test_cli(tmp_path, shaky):
 def test_plot_shows_the_camera_path_and_the_smoothed_one(stabilised, tmp_path):
     from unjello.exports import plot_trajectory
     from unjello.io.frames import read_image
-    from unjello.stabilize import camera_path
 
     _, traj = stabilised
     plot_trajectory(traj, tmp_path / "p.png")
@@ -198,14 +197,14 @@ def test_plot_shows_the_camera_path_and_the_smoothed_one(stabilised, tmp_path):
     plot_trajectory(plain, tmp_path / "q.png")
     # A third panel (9 inches high instead of 6).
     assert read_image(tmp_path / "p.png").shape[0] > 1.4 * read_image(tmp_path / "q.png").shape[0]
-    path = camera_path(traj.frames, TIMING)
-    assert path.shape == (len(traj.frames), 2) and not path[0].any()
+    path = np.array([f.reframe.path for f in traj.frames])
+    assert path.shape == (len(traj.frames), 3) and not path[0].any()
 
 
 def test_roll_is_taken_out(scene):
     # Frames turned by a 2 degree, 12-frame wobble and a 1 degree, 5-frame one (read
     # almost at once): measured 1.08 -> 0.32 degrees of roll per frame (RMS) at 480x360.
-    from unjello.stabilize import roll_step, track
+    from unjello.stabilize import track, tracked_step
 
     img = cv2.resize(scene, (440, 440))
     angles = (2.0 * np.sin(2 * np.pi * np.arange(36) / 12)
@@ -219,8 +218,8 @@ def test_roll_is_taken_out(scene):
 
     def rolls(pictures):
         grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY).astype(np.float32) for f in pictures]
-        steps = [roll_step(track(a, b), FrameMotion(0, 0.0, zero, zero),
-                           FrameMotion(1, 1.0, zero, zero))
+        steps = [tracked_step(track(a, b), FrameMotion(0, 0.0, zero, zero),
+                              FrameMotion(1, 1.0, zero, zero), (159.5, 119.5))[2]
                  for a, b in zip(grey[:-1], grey[1:], strict=True)]
         return np.sqrt(np.mean(np.square(steps)))
 

@@ -16,7 +16,6 @@ from .io.frames import write_image
 from .io.sink import FrameSink, remove, replace, temp_path
 from .io.source import FrameSource
 from .io.video import EncodeOptions, VideoWriter
-from .stabilize import camera_path
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory, TrajectoryWriter
 from .warp import frame_maps, resize_maps
@@ -111,7 +110,7 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
 
     Each frame's scanlines are drawn at their imaging times ``t_n + rho r / h``; dashed
     lines mark the frame starts. A stabilised motion gets a third panel: the camera's
-    path (:func:`unjello.stabilize.camera_path`) and the smoothed one the output shows.
+    path the stabiliser measured and the smoothed one the output shows.
 
     Parameters
     ----------
@@ -143,7 +142,7 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
     if stabilised:
         h = traj.frames[0].displacement.shape[0]
         t_ref = [traj.timing.reference_time(h, f.start) for f in traj.frames]
-        actual = camera_path(traj.frames, traj.timing)
+        actual = np.array([f.reframe.path[:2] for f in traj.frames])
         shown = actual + np.array([f.reframe.shift for f in traj.frames])
         for k, name in enumerate("xy"):
             axes[2].plot(t_ref, actual[:, k], color=colors[name], lw=1.0, label=f"{name}")

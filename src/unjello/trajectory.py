@@ -23,7 +23,8 @@ object), ``folds`` (share where the applied map still folds or tears in blobs),
 lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense methods
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``; when stabilised, ``shift`` ``[x, y]`` and ``zoom`` (the
-:class:`Reframe` the warp applied on top of the correction), and ``angle`` (radians).
+:class:`Reframe` the warp applied on top of the correction), ``angle`` (radians) and
+``path`` (the measured camera path: x, y, roll).
 """
 
 from __future__ import annotations
@@ -59,6 +60,9 @@ class Reframe:
     shift: tuple[float, float] = (0.0, 0.0)
     zoom: float = 1.0
     angle: float = 0.0
+    #: The camera path the stabiliser measured at this frame: x, y (px) and roll
+    #: (radians) from the clip's first frame; with ``shift`` and ``angle``, the smoothed one.
+    path: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @property
     def identity(self) -> bool:
@@ -180,6 +184,7 @@ class FrameMotion:
             d["shift"] = [round(float(v), 4) for v in self.reframe.shift]
             d["zoom"] = round(float(self.reframe.zoom), 6)
             d["angle"] = round(float(self.reframe.angle), 7)
+            d["path"] = [round(float(v), 7) for v in self.reframe.path]
         if self.field is not None:
             h, w = self.field.shape[:2]
             # The field's grid may be coarser than the frame (the dense method's working
@@ -215,7 +220,8 @@ class FrameMotion:
             spun=float(d.get("spun", 0.0)),
             field=field,
             reframe=Reframe(tuple(float(v) for v in d.get("shift", (0.0, 0.0))),  # type: ignore[arg-type]
-                            float(d.get("zoom", 1.0)), float(d.get("angle", 0.0))),
+                            float(d.get("zoom", 1.0)), float(d.get("angle", 0.0)),
+                            tuple(float(v) for v in d.get("path", (0.0, 0.0, 0.0)))),  # type: ignore[arg-type]
         )
 
 
