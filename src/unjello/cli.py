@@ -248,6 +248,51 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
 
 
 @cli.command()
+@click.argument("input", type=click.Path(path_type=Path))
+@_config_options(per_clip=True)
+@click.option("--port", type=click.IntRange(1, 65535), default=8000, show_default=True,
+              help="Port of the page on this machine (127.0.0.1 only).")
+@click.option("--no-browser", is_flag=True, help="Do not open the page in a browser.")
+@click.option("--max-frames", type=click.IntRange(2, 1_000_000), default=1800,
+              show_default=True, help="Frames held, from the start.")
+def preview(input: Path, preset: str | None, port: int, no_browser: bool, max_frames: int,
+            **options: Any) -> None:
+    """Tune the settings by eye: a local web page that corrects the frame you look at.
+
+    The page shows the input and the corrected frame side by side, re-rendered as the
+    readout, direction, reference or method change, and gives the `unjello correct`
+    command (or a preset file) for the settings chosen. The other options set where it
+    starts.
+    """
+    import socket
+    import threading
+    import webbrowser
+
+    import uvicorn
+
+    from .preview import PreviewClip
+    from .webapp import create_app
+
+    config = _config(preset, options)
+    with socket.socket() as probe:  # one clear line, before loading the clip
+        try:
+            probe.bind(("127.0.0.1", port))
+        except OSError:
+            raise UnjelloError(f"port {port} is in use on 127.0.0.1; give another with "
+                               "--port") from None
+    if not input.exists():
+        raise UnjelloError(f"{input}: no such file or folder")
+    click.echo(f"reading {input} ...", err=True)
+    with PreviewClip(input, config, max_frames) as clip:
+        url = f"http://127.0.0.1:{port}/"
+        click.echo(f"preview of {input} ({clip.count} frames) at {url}; Ctrl+C stops it",
+                   err=True)
+        if not no_browser:
+            threading.Timer(1.0, webbrowser.open, [url]).start()
+        uvicorn.run(create_app(clip), host="127.0.0.1", port=port, log_level="warning")
+
+
+@cli.command()
 @click.argument("image", type=click.Path(path_type=Path))
 @click.option("--frequency", type=click.FloatRange(min=0, min_open=True), required=True,
               help="Flicker frequency in Hz (LED drive frequency, or 100/120 for mains).")

@@ -105,7 +105,8 @@ def write_stmap(folder: str | os.PathLike, motion: FrameMotion, timing: SensorTi
     return path
 
 
-def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
+def plot_trajectory(traj: Trajectory, output: str | os.PathLike, mark: float | None = None
+                    ) -> None:
     """Plot per-scanline displacement and velocity over time, like the paper's Fig. 6.
 
     Each frame's scanlines are drawn at their imaging times ``t_n + rho r / h``; dashed
@@ -118,6 +119,8 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
         The motion to plot.
     output : path-like
         PNG (or any format Matplotlib writes).
+    mark : float, optional
+        A time to mark (the frame the preview shows).
     """
     import matplotlib
 
@@ -150,7 +153,11 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike) -> None:
                          label=f"{name}, stabilised")
         axes[2].set_ylabel("camera path at the\nreference times (px)")
         axes[2].legend(loc="upper right")
-    axes[-1].set_xlabel("time (frame intervals); dashed: frame starts")
+    if mark is not None:
+        for ax in axes:
+            ax.axvline(mark, color="tab:red", lw=1.5)
+    axes[-1].set_xlabel("time (frame intervals); dashed: frame starts"
+                        + ("; red: the frame shown" if mark is not None else ""))
     axes[0].legend(loc="upper right")
     axes[0].set_title(f"unjello motion ({traj.method or 'unknown method'}): readout "
                       f"{traj.timing.readout:.3f} of the frame interval, "

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections import deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, MutableMapping, Sequence
 from pathlib import Path
 
 import cv2
@@ -82,11 +82,19 @@ class Corrector:
         Frame rate, for the gyro method.
     gyro_log : GyroLog, optional
         The gyro method's samples (default: read from ``config.gyro.path``).
+    flows : mutable mapping, optional
+        The dense method's flows between frame pairs, kept across correctors of the same
+        frames (:class:`~unjello.motion.dense.DenseMethod`).
+    only : set of int, optional
+        Warp only these frames (by index from the first pushed); the others come back as
+        they were read, with their motion (the preview wants one frame of a window).
     """
 
     def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
                  max_value: float | None = None, motion: Trajectory | None = None,
-                 fps: float = 30.0, gyro_log: GyroLog | None = None) -> None:
+                 fps: float = 30.0, gyro_log: GyroLog | None = None,
+                 flows: MutableMapping[tuple, tuple] | None = None,
+                 only: set[int] | None = None) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
@@ -102,7 +110,7 @@ class Corrector:
                 gyro_log = read_gyro(config.gyro.path, config.gyro.layout, config.gyro.units)
             self._method = GyroMethod(timing, gyro_log, config.gyro, fps)
         else:
-            self._method = DenseMethod(timing, config.dense)
+            self._method = DenseMethod(timing, config.dense, flows)
         lens = None
         if config.undistort:
             if config.gyro.focal is None or config.gyro.distortion is None:
@@ -115,6 +123,7 @@ class Corrector:
         self._stabilizer: Stabilizer | None = None
         self._luma: np.ndarray | None = None  # the previous frame's, when stabilising
         self._count = 0  # pictures pushed
+        self._only = only
         self._held: deque[list[np.ndarray]] = deque()
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
 
@@ -156,7 +165,8 @@ class Corrector:
         for fm in motions:
             planes = self._held.popleft()
             around = {-1: self._last, 1: self._held[0] if self._held else None}
-            out.append((self.warp(planes, fm, around), fm))
+            skip = self._only is not None and fm.index not in self._only
+            out.append((planes if skip else self.warp(planes, fm, around), fm))
             self._last = planes
         return out
 

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, MutableMapping
 from dataclasses import dataclass
 
 import cv2
@@ -357,11 +357,20 @@ class DenseMethod:
         Readout and reference (frames already in top-bottom orientation).
     config : DenseConfig
         Settings.
+    flows : mutable mapping, optional
+        Where the flows between frame pairs are kept and looked up (by the frames' start
+        times, size and flow settings), to correct the same frames again with another
+        readout without measuring them again.
     """
 
-    def __init__(self, timing: SensorTiming, config: DenseConfig = DenseConfig()) -> None:
+    def __init__(self, timing: SensorTiming, config: DenseConfig = DenseConfig(),
+                 flows: MutableMapping[tuple, tuple] | None = None) -> None:
         self.timing = timing
         self.config = config
+        # Flows between frame pairs, by the frames' start times and the flow settings:
+        # they do not depend on the readout, so a caller that corrects the same frames
+        # again with other timing (the preview) passes the same mapping.
+        self._flows = flows
         self._frames: deque[_Frame] = deque()
         self._equations: deque[tuple[int, tuple]] = deque()  # (frame, its pair's rows)
         if config.vibration == "on":
@@ -391,8 +400,14 @@ class DenseMethod:
         if self._frames:
             prev = self._frames[-1]
             if self.config.per_pixel:
-                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flow_pair(prev.image, cur.image,
-                                                                       self.config.flow)
+                key = (prev.start, cur.start, img.shape, self.timing.direction,
+                       self.config.flow)
+                pair = self._flows.get(key) if self._flows is not None else None
+                if pair is None:
+                    pair = flow_pair(prev.image, cur.image, self.config.flow)
+                    if self._flows is not None:
+                        self._flows[key] = pair
+                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = pair
             else:  # rows only: one flow, its robust row summary rejects the outliers
                 cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
                                        self.config.finest_scale)
