@@ -31,7 +31,7 @@ from .motion.dense import DenseMethod
 from .motion.gyro import GyroLog, GyroMethod
 from .motion.paper import PaperMethod
 from .readout import estimate_readout_file
-from .stabilize import Stabilizer, track
+from .stabilize import Stabilizer, track, tracking_copy
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
 from .warp import PictureWarper
@@ -121,7 +121,8 @@ class Corrector:
         self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
         self.fps = fps
         self._stabilizer: Stabilizer | None = None
-        self._luma: np.ndarray | None = None  # the previous frame's, when stabilising
+        # The previous frame's tracking copy, when stabilising.
+        self._luma: tuple[np.ndarray, float] | None = None
         self._count = 0  # pictures pushed
         self._only = only
         self._held: deque[list[np.ndarray]] = deque()
@@ -146,9 +147,10 @@ class Corrector:
                 self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
                                               (luma.shape[1], luma.shape[0]), self.fps)
             tracks = {}
-            if self._luma is not None:  # the roll, from points tracked between the frames
-                tracks[self._count] = track(self._luma, luma)
-            self._luma = luma
+            small = tracking_copy(luma)
+            if self._luma is not None:  # steps and roll, from points tracked across frames
+                tracks[self._count] = track(self._luma, small)
+            self._luma = small
             motions = self._stabilizer.push(motions, tracks)
         self._count += 1
         return self._apply(motions)

@@ -48,8 +48,8 @@ from .motion.camera import ROBUST_KNEE, second_difference_band
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Reframe
 
-__all__ = ["StabilizeConfig", "Stabilizer", "track", "tracked_step", "reference_step",
-           "smooth_path", "MAX_CROP", "crop_request"]
+__all__ = ["StabilizeConfig", "Stabilizer", "tracking_copy", "track", "tracked_step",
+           "reference_step", "smooth_path", "MAX_CROP", "crop_request"]
 
 #: The most the automatic crop takes from each dimension (fraction of the frame), and
 #: the margin of ``crop='none'`` for the shift.
@@ -127,18 +127,23 @@ def reference_step(prev: FrameMotion, cur: FrameMotion, timing: SensorTiming) ->
     return (0.5 * (vel[1:] + vel[:-1]) * np.diff(grid)[:, None]).sum(axis=0)
 
 
-def track(prev: np.ndarray, cur: np.ndarray, width: int = 480) -> np.ndarray:
-    """Return corners of ``prev`` and where they are in ``cur``, ``(n, 4)``: x0, y0, x1, y1.
-
-    Shi-Tomasi corners tracked by pyramidal Lucas-Kanade on copies at most ``width``
-    wide, in pixels of the frames (grey, top-bottom orientation, 0-255); only what both
-    directions agree on (within half a pixel of the copy) is kept.
-    """
-    h, w = prev.shape[:2]
+def tracking_copy(image: np.ndarray, width: int = 480) -> tuple[np.ndarray, float]:
+    """Return the grey 8-bit copy of a frame (0-255) at most ``width`` wide, and its scale."""
+    h, w = image.shape[:2]
     scale = min(1.0, width / w)
     size = (max(1, round(w * scale)), max(1, round(h * scale)))
-    a, b = (cv2.resize(np.clip(f, 0, 255).astype(np.uint8), size, interpolation=cv2.INTER_AREA)
-            for f in (prev, cur))
+    small = cv2.resize(image, size, interpolation=cv2.INTER_AREA) if scale < 1 else image
+    return np.clip(small, 0, 255).astype(np.uint8), scale
+
+
+def track(prev: tuple[np.ndarray, float], cur: tuple[np.ndarray, float]) -> np.ndarray:
+    """Return corners of ``prev`` and where they are in ``cur``, ``(n, 4)``: x0, y0, x1, y1.
+
+    Shi-Tomasi corners tracked by pyramidal Lucas-Kanade on :func:`tracking_copy` copies
+    of two frames (grey, top-bottom orientation), in pixels of the frames; only what both
+    directions agree on (within half a pixel of the copy) is kept.
+    """
+    (a, scale), (b, _) = prev, cur
     pts = cv2.goodFeaturesToTrack(a, 300, 0.01, 8)
     if pts is None or len(pts) < 8:
         return np.zeros((0, 4))
