@@ -149,9 +149,9 @@ def high_pass(path: np.ndarray, seconds: float = 1.0) -> np.ndarray:
 
 # ---------------------------------------------------------------- simulated clips
 
-def handheld(kind: str) -> tuple[Motion, Motion]:
-    """(actual motion, its intended smooth part) of a simulated hand-held clip."""
-    t = np.arange(-2.0, 160.0, 0.25)
+def handheld(kind: str, frames: int = 150) -> tuple[Motion, Motion]:
+    """Return the actual motion and its intended smooth part, of a hand-held clip."""
+    t = np.arange(-2.0, frames + 10.0, 0.25)
     sec = t / FPS
     shake = Motion("shake")(t)
     if kind == "shake":
@@ -311,13 +311,13 @@ def real(work: Path, missing: str | None, frames: int, only: str = "") -> None:
               + f"   {min(zooms):.3f}-{max(zooms):.3f}", flush=True)
 
 
-def speed(work: Path) -> None:
+def speed(work: Path, frames: int = 150) -> None:
     # 150 frames: the stabiliser holds about 36 frames back, which on a clip of a few
     # dozen frames keeps the encoder waiting at the end (in-process profile of 40 frames:
     # 9.33 -> 10.07 s, 0.43 s of it waiting); a real clip is longer.
-    print("\n3. speed, 1080p (150 frames of a simulated hand-held pan, x264): seconds")
-    actual, _ = handheld("pan + shake")
-    sims = simulate(data.astronaut(), actual, SensorTiming(0.8), 150, size=(1920, 1080))
+    print(f"\n3. speed, 1080p ({frames} frames of a simulated hand-held pan, x264): seconds")
+    actual, _ = handheld("pan + shake", frames)
+    sims = simulate(data.astronaut(), actual, SensorTiming(0.8), frames, size=(1920, 1080))
     src = work / "speed_in"
     _write([cv2.cvtColor(s.rolling, cv2.COLOR_RGB2BGR) for s in sims], src)
     clip = work / "speed.mp4"
@@ -341,6 +341,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=90, help="frames of each clip")
     ap.add_argument("--speed", action="store_true", help="also time 1080p (needs ffmpeg)")
+    ap.add_argument("--speed-frames", type=int, default=150)
     ap.add_argument("--skip-real", action="store_true")
     ap.add_argument("--skip-simulated", action="store_true")
     ap.add_argument("--only", default="", help="real clips whose name contains this")
@@ -356,7 +357,7 @@ def main() -> None:
             if shutil.which("ffmpeg") is None:
                 print("\n3. speed skipped: no ffmpeg to encode the 1080p clip")
             else:
-                speed(work)
+                speed(work, args.speed_frames)
 
 
 if __name__ == "__main__":
