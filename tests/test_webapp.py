@@ -128,6 +128,8 @@ def test_settings_read_from_a_query():
     assert s.readout == 0.5 and s.camera_only and s.method == "dense"
     assert "--camera-only" in s.command("in.mp4", "out.mp4")
     assert PreviewSettings.from_query({}, base) == base
+    # The readout is kept as the command line says it (a database value: 21.69 ms at 29.97).
+    assert PreviewSettings(readout=0.649999).readout == 0.65
 
 
 def test_preview_command_refuses_bad_input(tmp_path):

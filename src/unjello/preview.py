@@ -78,7 +78,8 @@ class PreviewSettings:
     ----------
     method : {'dense', 'paper'}
     readout : float
-        Fraction of the frame interval, 0 < readout <= 1.
+        Fraction of the frame interval, 0 < readout <= 1, to four decimals (as the command
+        line gives it).
     direction, reference : str
         As :class:`~unjello.timing.SensorTiming`.
     camera_only : bool
@@ -97,6 +98,8 @@ class PreviewSettings:
                                 f", not {self.method!r} (use unjello correct)")
         if not (isinstance(self.readout, (int, float)) and 0 < self.readout <= 1):
             raise SettingsError(f"readout must be a fraction in (0, 1], not {self.readout!r}")
+        # As the command line will say it, so that the page's frame is the command's.
+        object.__setattr__(self, "readout", round(float(self.readout), 4))
         if self.direction not in DIRECTIONS:
             raise SettingsError(f"direction must be one of {', '.join(DIRECTIONS)}")
         if self.reference not in REFERENCES:
@@ -127,7 +130,7 @@ class PreviewSettings:
         Vibration is off: the preview sees a few frames, too few for ``auto`` to decide
         as the whole clip would.
         """
-        opts: dict[str, Any] = {"method": self.method, "readout": round(self.readout, 4),
+        opts: dict[str, Any] = {"method": self.method, "readout": self.readout,
                                 "direction": self.direction, "reference": self.reference}
         if self.method == "dense":
             opts["vibration"] = "off"
