@@ -57,11 +57,13 @@ class _LRU(OrderedDict):
         super().__init__()
         self.size = size
 
+    def __getitem__(self, key: Any) -> Any:
+        value = super().__getitem__(key)
+        self.move_to_end(key)
+        return value
+
     def get(self, key: Any, default: Any = None) -> Any:
-        if key in self:
-            self.move_to_end(key)
-            return self[key]
-        return default
+        return self[key] if key in self else default
 
     def __setitem__(self, key: Any, value: Any) -> None:
         super().__setitem__(key, value)

@@ -358,19 +358,14 @@ class DenseMethod:
     config : DenseConfig
         Settings.
     flows : mutable mapping, optional
-        Where the flows between frame pairs are kept and looked up (by the frames' start
-        times, size and flow settings), to correct the same frames again with another
-        readout without measuring them again.
+        Flows between frame pairs, kept across methods correcting the same frames.
     """
 
     def __init__(self, timing: SensorTiming, config: DenseConfig = DenseConfig(),
                  flows: MutableMapping[tuple, tuple] | None = None) -> None:
         self.timing = timing
         self.config = config
-        # Flows between frame pairs, by the frames' start times and the flow settings:
-        # they do not depend on the readout, so a caller that corrects the same frames
-        # again with other timing (the preview) passes the same mapping.
-        self._flows = flows
+        self._flows = flows  # flows do not depend on the readout: kept by the caller
         self._frames: deque[_Frame] = deque()
         self._equations: deque[tuple[int, tuple]] = deque()  # (frame, its pair's rows)
         if config.vibration == "on":
@@ -400,14 +395,11 @@ class DenseMethod:
         if self._frames:
             prev = self._frames[-1]
             if self.config.per_pixel:
-                key = (prev.start, cur.start, img.shape, self.timing.direction,
-                       self.config.flow)
-                pair = self._flows.get(key) if self._flows is not None else None
-                if pair is None:
-                    pair = flow_pair(prev.image, cur.image, self.config.flow)
-                    if self._flows is not None:
-                        self._flows[key] = pair
-                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = pair
+                key = (prev.start, cur.start, img.shape, self.timing.direction, self.config.flow)
+                flows = self._flows if self._flows is not None else {}
+                if key not in flows:
+                    flows[key] = flow_pair(prev.image, cur.image, self.config.flow)
+                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flows[key]
             else:  # rows only: one flow, its robust row summary rejects the outliers
                 cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
                                        self.config.finest_scale)
@@ -491,11 +483,8 @@ class DenseMethod:
         if not eqs:
             return None
         t_a, t_b, rows, delta, wgt = (np.concatenate([e[i] for e in eqs]) for i in range(5))
-        # At least 1/256 of a frame interval: the equations span an interval, so the
-        # solve's band is 1 / step samples wide and its cost grows with its square (at a
-        # readout of 0.05, 64 samples a readout made it 0.57 s a frame, now 0.01 s). Below a
-        # readout of 0.25 the readout then has fewer than 64 samples, which its little
-        # skew does not need.
+        # At least 1/256 of a frame: the solve's band is 1 / step wide, its cost the
+        # square of that (a readout of 0.05 took 0.57 s a frame; docs/tuning.md).
         step = max(self.timing.readout / self.config.grid, 1.0 / 256)
         smoothness = self.config.smoothness
         if len(eqs) == 1:
