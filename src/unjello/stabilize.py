@@ -252,7 +252,9 @@ def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarr
 
     Parameters
     ----------
-    path : ndarray of shape (n, 2)
+    path : ndarray of shape (n, d)
+        Each column is smoothed; the reweighting sees the norm of all columns'
+        accelerations.
     stiffness : float
         Weight of the acceleration penalty: ``(sigma / 1.18) ** 4`` smooths like a
         Gaussian of ``sigma`` samples (the same half-power frequency).
@@ -272,22 +274,19 @@ def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarr
     n = len(path)
     if n < 3:
         return path.astype(np.float64).copy()
-    smooth = path.astype(np.float64)
-    relief = np.ones(n - 2)
-    for r in range(rounds + 1):
+    data = path.astype(np.float64)
+    smooth, relief = data, np.ones(n - 2)
+    for _ in range(rounds + 1):
         if rounds:
             # The first weights come from the path itself, where a corner is one sharp
             # acceleration (a smoothed path spreads it like shake, and reweighting from
             # it alone took 30 rounds to turn a corner: 28 -> 3 px).
             accel = np.linalg.norm(np.diff(smooth, 2, axis=0), axis=1)
             knee = max(ROBUST_KNEE * float(np.median(accel)), 1e-9)
-            relief = np.minimum(relief, knee / (accel + 1e-12)) if r else np.minimum(
-                1.0, knee / (accel + 1e-12))
+            relief = np.minimum(relief, knee / (accel + 1e-12))
         band = stiffness * second_difference_band(n, relief)
         band[2] += 1.0
-        smooth = linalg.solveh_banded(band, path.astype(np.float64))
-        if r == rounds or not rounds:
-            break
+        smooth = linalg.solveh_banded(band, data)
     return smooth
 
 
@@ -362,18 +361,17 @@ class Stabilizer:
         ----------
         motions : list of FrameMotion
         tracks : dict, optional
-            Frame index ``k`` -> :func:`track` from frame ``k - 1`` to ``k``, for the roll
-            (without, the roll is not stabilised).
+            Frame index ``k`` -> :func:`track` from frame ``k - 1`` to ``k`` (without, the
+            steps are the scanline velocity's integral and the roll is not stabilised).
         """
         self._tracks.update(tracks or {})
         for fm in motions:
             if self._n == len(self._path):
                 self._path = np.concatenate([self._path, np.zeros_like(self._path)])
             if self._prev is not None:
-                # A frame whose motion is unknown keeps the camera's last step; a roll
-                # not measured is none.
-                # Points tracked between the two frames give the step (and the roll);
-                # where too few agree, the integral of the scanline velocity does.
+                # Points tracked between the two frames give the step and the roll; where
+                # too few agree, the integral of the scanline velocity gives the step (no
+                # roll). A frame whose motion is unknown keeps the last step.
                 step = None
                 if fm.ok and self._prev.ok:
                     pts = self._tracks.pop(fm.index, None)
