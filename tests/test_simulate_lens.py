@@ -57,6 +57,17 @@ def test_the_gyro_method_through_the_lens(fisheye_clip):
     assert lens > before + 12 and lens > pinhole + 8
 
 
+def test_the_dense_method_needs_no_lens(fisheye_clip):
+    """The per-pixel motion follows the fisheye's curved paths by itself: measured
+    22.04 dB uncorrected, 40.47 dB (the gyro method knowing the lens: 41.02 dB); at
+    480x360, 17.58 -> 39.14 dB. So the dense method is given no lens model."""
+    sim, _ = fisheye_clip
+    before = float(np.mean([psnr(s.rolling, s.truth, 12) for s in sim]))
+    out, _ = correct_frames([s.rolling for s in sim], SensorTiming(1.0))
+    after = float(np.mean([psnr(o, s.truth, 12) for o, s in zip(out, sim, strict=True)]))
+    assert after > before + 15
+
+
 def test_a_lens_profile_gives_the_gyro_method_its_lens(fisheye_clip, tmp_path):
     sim, log_path = fisheye_clip
     src = tmp_path / "frames"
