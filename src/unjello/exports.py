@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import BinaryIO
 
 import cv2
 import numpy as np
@@ -105,8 +106,8 @@ def write_stmap(folder: str | os.PathLike, motion: FrameMotion, timing: SensorTi
     return path
 
 
-def plot_trajectory(traj: Trajectory, output: str | os.PathLike, mark: float | None = None
-                    ) -> None:
+def plot_trajectory(traj: Trajectory, output: str | os.PathLike | BinaryIO,
+                    mark: float | None = None) -> None:
     """Plot per-scanline displacement and velocity over time, like the paper's Fig. 6.
 
     Each frame's scanlines are drawn at their imaging times ``t_n + rho r / h``; dashed
@@ -117,8 +118,8 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike, mark: float | N
     ----------
     traj : Trajectory
         The motion to plot.
-    output : path-like
-        PNG (or any format Matplotlib writes).
+    output : path-like or binary file
+        PNG (or any format Matplotlib writes, by the file's suffix); a file gets a PNG.
     mark : float, optional
         A time to mark (the frame the preview shows).
     """
@@ -165,7 +166,8 @@ def plot_trajectory(traj: Trajectory, output: str | os.PathLike, mark: float | N
                       f"{len(traj)} frames")
     for ax in axes:
         ax.grid(alpha=0.3)
-    fig.savefig(str(output), dpi=110)
+    fig.savefig(output if hasattr(output, "write") else str(output), dpi=110,
+                format=None if isinstance(output, (str, os.PathLike)) else "png")
     plt.close(fig)
 
 

@@ -178,9 +178,8 @@ def tracked_step(points: np.ndarray, prev: FrameMotion, cur: FrameMotion,
 
     Returns
     -------
-    ndarray of shape (4,) or None
-        The shift of the frame's centre (x, y, px), the roll and its standard error
-        (radians, from the fit's residuals); None when
+    ndarray of shape (3,) or None
+        The shift of the frame's centre (x, y, px) and the roll (radians); None when
         fewer than 12 points agree. On simulated hand shake (640x360, readout 0.8) the
         shift is within 0.022 px RMS of the truth, where the integral of the dense
         method's scanline velocity (:func:`reference_step`) is within 0.115 px.
@@ -200,14 +199,7 @@ def tracked_step(points: np.ndarray, prev: FrameMotion, cur: FrameMotion,
     if m is None or inliers is None or int(inliers.sum()) < 12:
         return None
     c = np.asarray(centre, dtype=np.float64)
-    # The roll's standard error: the residual's spread over the points' spread about
-    # their centre (a least-squares rotation's), from the inliers.
-    keep = inliers.ravel() == 1
-    ai, bi = a[keep].astype(np.float64), b[keep].astype(np.float64)
-    resid = bi - (ai @ m[:, :2].T + m[:, 2])
-    spread = float(((ai - ai.mean(axis=0)) ** 2).sum())
-    error = float(np.sqrt((resid ** 2).sum() / max(2 * keep.sum() - 4, 1) / max(spread, 1e-9)))
-    return np.array([*(m[:, :2] @ c + m[:, 2] - c), np.arctan2(m[1, 0], m[0, 0]), error])
+    return np.array([*(m[:, :2] @ c + m[:, 2] - c), np.arctan2(m[1, 0], m[0, 0])])
 
 
 def _extended(path: np.ndarray, lo: int, hi: int, last: int | None, span: int

@@ -555,8 +555,7 @@ class PictureWarper:
         d = self.direction
         fill: Fill = "black" if self.fill == "black" else "nearest"
         h, w = to_top_bottom(planes[0], d).shape[:2]
-        maps = (reframe_maps(field_maps(motion.field, frame=(h, w)), motion.reframe, (h, w))
-                if motion.field is not None else None)
+        maps = frame_maps(motion, h, w)[0] if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         sources: list[tuple[list[np.ndarray], np.ndarray]] = []
         parts: dict[tuple[int, int], list] = {}

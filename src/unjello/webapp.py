@@ -21,9 +21,8 @@ message, and the server goes on.
 
 from __future__ import annotations
 
-import tempfile
+import io
 from importlib import resources
-from pathlib import Path
 
 from starlette.applications import Starlette
 from starlette.requests import Request
@@ -75,11 +74,10 @@ def create_app(clip: PreviewClip) -> Starlette:
         if not len(traj):
             clip.corrected(n, chosen)
             traj = clip.motions(chosen)
-        with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / "motion.png"
-            plot_trajectory(traj, path, mark=float(n))
-            data = path.read_bytes()
-        return Response(data, media_type="image/png", headers={"Cache-Control": "no-store"})
+        png = io.BytesIO()
+        plot_trajectory(traj, png, mark=float(n))
+        return Response(png.getvalue(), media_type="image/png",
+                        headers={"Cache-Control": "no-store"})
 
     def command(request: Request) -> Response:
         return JSONResponse({"command": clip.command(settings(request))})
