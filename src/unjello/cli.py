@@ -176,14 +176,15 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
         if not quiet or m.startswith("warning"):
             click.echo(m, err=True)
 
-    decided: dict[str, Any] = {}
+    decided: dict[str, Any] = {"gyro": None}
     t0 = time.perf_counter()
     with _progress("correcting", quiet or as_json) as progress:
         traj = correct_video(input, output, config, overwrite=overwrite,
                              motion_out=motion_out, motion_in=motion_in, preview=preview,
                              stmap=stmap, progress=progress, log=log,
                              on_timing=lambda r: decided.update(fps=r.fps,
-                                                                sources=dict(r.sources)))
+                                                                sources=dict(r.sources)),
+                             on_gyro=lambda g: decided.update(gyro=g))
     seconds = time.perf_counter() - t0
     bad = sum(not f.ok for f in traj.frames)
     if bad and len(traj) > 1:
@@ -240,7 +241,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "spun_frames": [f.index for f in traj.frames if f.spun > 0],
             "confidence": [round(f.confidence, 3) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
-            "stabilized": stabilised, "messages": messages}))
+            "gyro": decided["gyro"], "stabilized": stabilised, "messages": messages}))
     elif not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g} "
                    f"({decided['sources']['readout']}), "

@@ -28,7 +28,7 @@ from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.telemetry import camera_of
 from .motion.dense import DenseMethod
-from .motion.gyro import GyroLog, GyroMethod
+from .motion.gyro import GyroLog, GyroMethod, GyroMismatch
 from .motion.paper import PaperMethod
 from .readout import estimate_readout_file
 from .stabilize import Stabilizer, track, tracking_copy
@@ -88,16 +88,36 @@ class Corrector:
     only : set of int, optional
         Warp only these frames (by index from the first pushed); the others come back as
         they were read, with their motion (the preview wants one frame of a window).
+    gyro_fallback : bool
+        With the gyro method: when the gyro does not explain the footage's motion (a
+        camera on a gimbal), measure the motion with the dense method instead of raising
+        :class:`~unjello.motion.gyro.GyroMismatch` (the frames the calibration held are
+        given to it). :attr:`fallback` then says why.
+
+    Attributes
+    ----------
+    method : str
+        The method that measures the motion (``'dense'`` after a fallback).
+    fallback : str
+        Why the gyro was not used; empty when it was (or was not asked for).
+    gyro_agreement : float or None
+        Share of the row motion the gyro explains, once calibrated or given up.
     """
 
     def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
                  max_value: float | None = None, motion: Trajectory | None = None,
                  fps: float = 30.0, gyro_log: GyroLog | None = None,
                  flows: MutableMapping[tuple, tuple] | None = None,
-                 only: set[int] | None = None) -> None:
+                 only: set[int] | None = None, gyro_fallback: bool = False) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
+        self.method = config.method if motion is None else "replay"
+        self.fallback = ""
+        self.gyro_agreement: float | None = None
+        self._flows = flows
+        # Lumas the gyro calibration holds, for the dense method should the gyro not fit.
+        self._calibrating: list[tuple[np.ndarray, float]] | None = None
         self._method: PaperMethod | DenseMethod | GyroMethod | _Replay
         if motion is not None:
             self._method = _Replay(motion)
@@ -109,6 +129,8 @@ class Corrector:
                     raise InputError("the gyro method needs a gyro log: give gyro=FILE")
                 gyro_log = read_gyro(config.gyro.path, config.gyro.layout, config.gyro.units)
             self._method = GyroMethod(timing, gyro_log, config.gyro, fps)
+            if gyro_fallback and self._method.calibration is None:
+                self._calibrating = []
         else:
             self._method = DenseMethod(timing, config.dense, flows)
         lens = None
@@ -141,7 +163,7 @@ class Corrector:
         mv = self.max_value or _max_value(planes[0].dtype)
         luma = _luma255(to_top_bottom(planes[0], self.timing.direction), mv)
         self._held.append(planes)
-        motions = self._method.push(luma, start)
+        motions = self._measure((luma, start))
         if self.config.stabilize.enabled:
             if self._stabilizer is None:
                 self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
@@ -155,9 +177,33 @@ class Corrector:
         self._count += 1
         return self._apply(motions)
 
+    def _measure(self, frame: tuple[np.ndarray, float] | None) -> list[FrameMotion]:
+        """Push ``(luma, start)`` to the method, or flush it; fall back from the gyro."""
+        if self._calibrating is not None and frame is not None:
+            self._calibrating.append(frame)
+        try:
+            motions = self._method.push(*frame) if frame is not None else self._method.flush()
+        except GyroMismatch as mismatch:
+            if self._calibrating is None:
+                raise
+            self.gyro_agreement = mismatch.agreement
+            self.fallback = (f"{mismatch.summary} in the first frames (a camera on a "
+                             "gimbal, or one that stabilised its picture, moves otherwise)")
+            self.method = "dense"
+            self._method = DenseMethod(self.timing, self.config.dense, self._flows)
+            motions = [m for held in self._calibrating for m in self._method.push(*held)]
+            if frame is None:
+                motions += self._method.flush()
+            self._calibrating = None
+            return motions
+        if isinstance(self._method, GyroMethod) and self._method.calibration is not None:
+            self._calibrating = None
+            self.gyro_agreement = self._method.calibration.agreement
+        return motions
+
     def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
         """Correct the pictures still held at the end of the clip."""
-        motions = self._method.flush()
+        motions = self._measure(None)
         if self._stabilizer is not None:
             motions = self._stabilizer.push(motions) + self._stabilizer.flush()
         return self._apply(motions)
@@ -268,6 +314,7 @@ def correct_video(
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     on_timing: Callable[[ResolvedTiming], None] | None = None,
+    on_gyro: Callable[[dict], None] | None = None,
 ) -> Trajectory:
     """Correct a video file, or a folder of frames, into ``dst``.
 
@@ -299,6 +346,13 @@ def correct_video(
     on_timing : callable, optional
         Called once with the :class:`~unjello.config.ResolvedTiming`: the readout,
         direction, reference and frame rate used, and where each came from.
+    on_gyro : callable, optional
+        With the gyro method, called once at the end with what became of the gyro:
+        ``{"source": str, "used": bool, "explains": float or None, "why": str}``. The
+        camera's own gyro (read from the file) that does not explain the picture's motion
+        -- a camera on a gimbal, a picture the camera stabilised itself -- is not used:
+        the dense method measures the motion instead, and ``log`` says so. A gyro log
+        given or found beside the clip that does not fit is an error.
 
     Returns
     -------
@@ -332,27 +386,45 @@ def correct_video(
             size=(source.info.width, source.info.height), identified=identified,
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
-        gyro_log = None
+        gyro_log, own, report = None, None, {}
         if gyro or config.undistort:
             config, lens = _with_lens(config, config.camera or identified,
                                       (source.info.width, source.info.height), resolved.fps)
             resolved = dataclasses.replace(resolved, messages=(*resolved.messages, *lens))
         if gyro:
-            gyro_log, said = gyro_source(src_p, config.gyro)
+            gyro_log, said, own = gyro_source(src_p, config.gyro)
             resolved = dataclasses.replace(
                 resolved, sources={**resolved.sources, "gyro": said},
                 messages=(*resolved.messages, f"gyro: {said}"))
+            report = {"source": said, "used": True, "explains": None, "why": ""}
+            if own is not None and own.stabilised:
+                report.update(used=False, why=(
+                    f"the camera stabilised the picture itself (stabilisation "
+                    f"{own.stabilised!r}), so it no longer moves as the gyro says"))
+                config, gyro_log = dataclasses.replace(config, method="dense"), None
         for message in resolved.messages:
             if log:
                 log(message)
         if on_timing:
             on_timing(resolved)
         corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
-                              motion=given, fps=resolved.fps, gyro_log=gyro_log)
+                              motion=given, fps=resolved.fps, gyro_log=gyro_log,
+                              gyro_fallback=own is not None)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),
                           method=given.method if given else config.method)
         _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
                 resolved, progress)
+    if report:
+        if corrector.fallback:
+            report.update(used=False, why=corrector.fallback)
+        report["explains"] = (None if corrector.gyro_agreement is None
+                              or not np.isfinite(corrector.gyro_agreement)
+                              else round(corrector.gyro_agreement, 3))
+        if not report["used"] and log:
+            log(f"warning: the camera's own gyro was not used: {report['why']}; the dense "
+                "method measured the motion instead")
+        if on_gyro:
+            on_gyro(report)
     if log and len(traj) == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
     return traj
@@ -391,6 +463,8 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
     held: deque[Picture] = deque()
 
     def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
+        if corrector.fallback:  # before the motion JSON's header is written
+            traj.method = corrector.method
         for planes, fm in items:
             picture = held.popleft()
             sink.write(picture, planes)

@@ -309,26 +309,37 @@ class TrajectoryWriter:
     path : path-like
         Destination; written under a temporary name until :meth:`close`.
     header : Trajectory
-        Supplies the method, timing and size (its frames are ignored).
+        Supplies the method, timing and size (its frames are ignored), read when the
+        first frame is written.
     """
 
     def __init__(self, path: str | os.PathLike, header: Trajectory) -> None:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.name}.tmp{os.getpid()}")
-        doc = header.to_json()
-        doc["frames"] = []
-        text = json.dumps(doc)
+        self._header = header
         self._f = self._tmp.open("w")
-        self._f.write(text[:-2])  # up to "frames": [
         self._n = 0
+
+    def _open(self) -> None:
+        """Write the header as it stands at the first frame.
+
+        A method that falls back to another says so before its first frame.
+        """
+        doc = self._header.to_json()
+        doc["frames"] = []
+        self._f.write(json.dumps(doc)[:-2])  # up to "frames": [
 
     def write(self, frame: FrameMotion) -> None:
         """Append one frame."""
+        if not self._n:
+            self._open()
         self._f.write(("," if self._n else "") + json.dumps(frame.to_dict()))
         self._n += 1
 
     def close(self) -> None:
         """Finish the document and move it into place."""
+        if not self._n:
+            self._open()
         self._f.write("]}")
         self._f.close()
         os.replace(self._tmp, self.path)

@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from unjello.io.sidecars import write_gyro
 from unjello.io.telemetry import embedded_gyro
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
@@ -68,11 +69,45 @@ def test_the_gyro_method_uses_the_cameras_own_gyro(tmp_path, scene):
     assert err < 0.1 * unc
 
 
+def test_a_gyro_that_does_not_fit_hands_the_clip_to_the_dense_method(tmp_path, scene):
+    """The camera's own gyro saw almost no rotation (as on a gimbal) while the picture
+    pans: the frames its calibration held go to the dense method, whose motion is then
+    exactly what asking for the dense method gives; the JSON, the motion file and a
+    warning say so. A log given with --gyro that does not fit is still an error."""
+    src = tmp_path / "pan.mp4"
+    make_clip(src, scene, n=32, fps=25, speed=6.0)
+    t = np.arange(-1.0, 32 / 25 + 1.0, 1 / 400)
+    rates = np.random.default_rng(3).normal(0.0, 2e-3, (t.size, 3))  # gimbal-still
+    _write_gcsv(src.with_suffix(".gcsv"), t - t[0], rates)
+    res = run("correct", src, "-o", tmp_path / "gyro.mp4", "--method", "gyro", "--json",
+              "-q", "--motion-out", tmp_path / "gyro.json")
+    assert res.returncode == 0, res.stderr
+    summary = json.loads(res.stdout)
+    assert summary["method"] == "dense" and summary["frames"] == 32
+    gyro = summary["gyro"]
+    assert gyro["used"] is False and gyro["explains"] < 0.3
+    assert "the camera's own gyro" in gyro["source"] and "row motion" in gyro["why"]
+    assert "warning: the camera's own gyro was not used" in res.stderr
+    res = run("correct", src, "-o", tmp_path / "dense.mp4", "-q", "--motion-out",
+              tmp_path / "dense.json")
+    assert res.returncode == 0, res.stderr
+    fell, dense = (json.loads((tmp_path / f).read_text()) for f in ("gyro.json", "dense.json"))
+    assert fell["method"] == dense["method"] == "dense"
+    assert [f["displacement"] for f in fell["frames"]] == \
+        [f["displacement"] for f in dense["frames"]]
+    write_gyro(tmp_path / "log.csv", t - t[0], rates)
+    line = clean_failure(run("correct", src, "-o", tmp_path / "log.mp4", "--gyro",
+                             tmp_path / "log.csv", "-q"))
+    assert "does not explain" in line
+    assert not (tmp_path / "log.mp4").exists()
+
+
 def test_gopro_files(shared_data, tmp_path):
     """The HERO5 Black on a Karma drone and the GoPro Max: both gyros are read. The Max
     stabilised its picture itself (HyperSmooth), so its gyro no longer describes it; the
-    Karma's gimbal keeps the camera from rotating, so its gyro explains a fifth of the
-    picture's motion (the drone's travel is the rest). Each is one clear line."""
+    Karma's gimbal keeps the camera from rotating, so its gyro does not explain the
+    picture's motion (the drone's travel does). Both are corrected by the dense method,
+    and --json names the camera, the readout and its source, and what became of the gyro."""
     folder = shared_data / "sequences" / "gopro_gpmf"
     karma = embedded_gyro(folder / "karma.mp4")
     assert karma is not None and (karma.camera, karma.model) == ("GoPro", "HERO5 Black")
@@ -81,13 +116,18 @@ def test_gopro_files(shared_data, tmp_path):
     gmax = embedded_gyro(folder / "max-heromode.mp4")
     assert gmax is not None and gmax.model == "GoPro Max" and gmax.log.time.size > 2000
     assert gmax.stabilised == "HS HLevel"
-    line = clean_failure(run("correct", folder / "max-heromode.mp4", "-o",
-                             tmp_path / "max.mp4", "--method", "gyro"))
-    assert "stabilised the picture itself" in line and "GoPro Max" in line
-    line = clean_failure(run("correct", folder / "karma.mp4", "-o", tmp_path / "karma.mp4",
-                             "--method", "gyro", "-q"))
-    assert "does not explain" in line and "gimbal" in line
-    assert not (tmp_path / "karma.mp4").exists() and not (tmp_path / "max.mp4").exists()
+    fast = ("--camera-only", "--flow-preset", "ultrafast", "--vibration", "off")
+    for name, camera, why in (("karma.mp4", "GoPro HERO5 Black", "row motion"),
+                              ("max-heromode.mp4", "GoPro Max", "stabilised the picture")):
+        res = run("correct", folder / name, "-o", tmp_path / name, "--method", "gyro",
+                  "--json", *fast)
+        assert res.returncode == 0, res.stderr
+        summary = json.loads(res.stdout)
+        assert summary["method"] == "dense" and (tmp_path / name).exists()
+        assert summary["sources"]["readout"] == f"camera database ({camera})"
+        assert camera in summary["gyro"]["source"] and summary["gyro"]["used"] is False
+        assert why in summary["gyro"]["why"]
+        assert "warning: the camera's own gyro was not used: " in res.stderr
 
 
 def test_a_parser_panic_is_no_traceback():

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..motion.gyro import GyroConfig, GyroLog
-from .telemetry import embedded_gyro, telemetry_available, vendor_call
+from .telemetry import EmbeddedGyro, embedded_gyro, telemetry_available, vendor_call
 
 __all__ = ["StatedReadout", "stated_readout", "LensProfile", "read_lens_profile",
            "find_gyro_log", "gyro_source", "read_gyro", "write_gyro"]
@@ -202,12 +202,22 @@ def find_gyro_log(src: str | os.PathLike) -> Path:
                         f"{base.name}.gyro.csv beside {src.name}")
 
 
-def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, str]:
-    """Return the gyro samples for a clip, and where they came from (one line).
+def gyro_source(src: str | os.PathLike, config: GyroConfig
+                ) -> tuple[GyroLog, str, EmbeddedGyro | None]:
+    """Return the gyro samples for a clip, where they came from (one line), and whose.
 
     In order: the log given (``config.path``), a log beside the clip
     (:func:`find_gyro_log`), the gyro the camera wrote into the file itself
     (:func:`~unjello.io.telemetry.embedded_gyro`).
+
+    Returns
+    -------
+    log : GyroLog
+    said : str
+        Where the samples came from.
+    own : EmbeddedGyro or None
+        The camera's own gyro, when that is what was found (it says whether the camera
+        stabilised the picture itself); None for a log.
 
     Raises
     ------
@@ -216,7 +226,7 @@ def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, st
     """
     if config.path:
         return read_gyro(config.path, config.layout, config.units), \
-            f"gyro log {Path(config.path).name}"
+            f"gyro log {Path(config.path).name}", None
     try:
         path = find_gyro_log(src)
     except SettingsError as missing:
@@ -227,14 +237,8 @@ def gyro_source(src: str | os.PathLike, config: GyroConfig) -> tuple[GyroLog, st
                       "could be read: telemetry-parser is not installed")
             raise SettingsError(f"{missing}; {src_p.name} has no gyro of its own that "
                                 f"{reader}") from None
-        if found.stabilised:
-            raise SettingsError(
-                f"{src_p.name}: {found.describe()}, but the camera stabilised the picture "
-                f"itself (stabilisation {found.stabilised!r}), so it no longer moves as the "
-                "gyro says; use the dense method, or record with the camera's "
-                "stabilisation off") from None
-        return found.log, found.describe()
-    return read_gyro(path, config.layout, config.units), f"gyro log {path.name}"
+        return found.log, found.describe(), found
+    return read_gyro(path, config.layout, config.units), f"gyro log {path.name}", None
 
 
 def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> GyroLog:

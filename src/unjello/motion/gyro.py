@@ -43,8 +43,8 @@ from ..timing import SensorTiming
 from ..trajectory import FIELD_STEP, FrameMotion
 from .flow import landing, optical_flow, row_flows
 
-__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "axes_matrix",
-           "calibrate", "gyro_field"]
+__all__ = ["GyroLog", "GyroConfig", "GyroCalibration", "GyroMethod", "GyroMismatch",
+           "axes_matrix", "calibrate", "gyro_field"]
 
 # Flow for the calibration is computed on copies at most this wide (DIS medium at its
 # full resolution there).
@@ -53,6 +53,30 @@ _SYNC_WIDTH = 320
 # own log explains all of a simulated shake, a real phone clip's 0.61, random ones less
 # (``docs/tuning.md``).
 _AGREEMENT = 0.3
+
+
+class GyroMismatch(InputError):
+    """The gyro does not explain the footage's motion.
+
+    Attributes
+    ----------
+    agreement : float
+        The largest share of the measured row motion any calibration explains (0 when
+        none is plausible).
+    """
+
+    def __init__(self, message: str, agreement: float) -> None:
+        super().__init__(message)
+        self.agreement = agreement
+
+    @property
+    def summary(self) -> str:
+        """The finding in a few words (for a fallback's note)."""
+        if self.agreement <= 0:
+            return ("no clock offset, axes and plausible focal length make the gyro "
+                    "explain the picture's row motion")
+        return (f"the gyro explains at most {100 * self.agreement:.0f}% of the picture's "
+                f"row motion ({100 * _AGREEMENT:.0f}% needed)")
 
 
 @dataclass(frozen=True)
@@ -284,10 +308,11 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
 
     Raises
     ------
-    InputError
+    GyroMismatch
         When the gyro does not explain the footage's motion (no offset, axes and focal
-        length in a plausible range fit), or the footage has too little texture or motion
-        to calibrate against.
+        length in a plausible range fit).
+    InputError
+        When the footage has too little texture or motion to calibrate against.
     """
     h, w = size
     if rows.row.size < 16:
@@ -369,12 +394,13 @@ def calibrate(rows: _Rows, starts: np.ndarray, log: GyroLog, timing: SensorTimin
                 result = (float(o), m, f, agree)
     if result is None or result[3] < _AGREEMENT:
         share = f"at most {100 * max(result[3], 0.0):.0f}%" if result else "none"
-        raise InputError(
+        raise GyroMismatch(
             f"the gyro log does not explain the footage's motion ({share} of the row motion "
             f"in the first frames, at any clock offset, axes and plausible focal length; "
             f"{100 * _AGREEMENT:.0f}% needed). Check that the log belongs to this clip and "
             "its gyro_layout= and gyro_units=; a camera that hardly rotates (on a gimbal, "
-            "its picture moving with the vehicle's travel) needs the dense method")
+            "its picture moving with the vehicle's travel) needs the dense method",
+            max(result[3], 0.0) if result else 0.0)
     return GyroCalibration(axes=result[1], offset=result[0], focal=result[2],
                            agreement=result[3], distortion=config.distortion)
 
