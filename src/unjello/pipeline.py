@@ -88,11 +88,13 @@ class Corrector:
     only : set of int, optional
         Warp only these frames (by index from the first pushed); the others come back as
         they were read, with their motion (the preview wants one frame of a window).
-    gyro_fallback : bool
+    gyro_fallback : bool or str
         With the gyro method: when the gyro does not explain the footage's motion (a
         camera on a gimbal), measure the motion with the dense method instead of raising
         :class:`~unjello.motion.gyro.GyroMismatch` (the frames the calibration held are
-        given to it). :attr:`fallback` then says why.
+        given to it). :attr:`fallback` then says why. A string is a reason known
+        beforehand not to use the gyro (the camera stabilised its picture): it is
+        calibrated only to say how much it explains, and the dense method measures.
 
     Attributes
     ----------
@@ -108,7 +110,7 @@ class Corrector:
                  max_value: float | None = None, motion: Trajectory | None = None,
                  fps: float = 30.0, gyro_log: GyroLog | None = None,
                  flows: MutableMapping[tuple, tuple] | None = None,
-                 only: set[int] | None = None, gyro_fallback: bool = False) -> None:
+                 only: set[int] | None = None, gyro_fallback: bool | str = False) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
@@ -116,6 +118,7 @@ class Corrector:
         self.fallback = ""
         self.gyro_agreement: float | None = None
         self._flows = flows
+        self._distrust = gyro_fallback if isinstance(gyro_fallback, str) else ""
         # Lumas the gyro calibration holds, for the dense method should the gyro not fit.
         self._calibrating: list[tuple[np.ndarray, float]] | None = None
         self._method: PaperMethod | DenseMethod | GyroMethod | _Replay
@@ -129,8 +132,12 @@ class Corrector:
                     raise InputError("the gyro method needs a gyro log: give gyro=FILE")
                 gyro_log = read_gyro(config.gyro.path, config.gyro.layout, config.gyro.units)
             self._method = GyroMethod(timing, gyro_log, config.gyro, fps)
-            if gyro_fallback and self._method.calibration is None:
+            if gyro_fallback:
                 self._calibrating = []
+                if self._method.calibration is not None:  # all given: nothing to calibrate
+                    if self._distrust:
+                        self._hand_over(self._distrust, final=False)
+                    self._calibrating = None
         else:
             self._method = DenseMethod(timing, config.dense, flows)
         lens = None
@@ -187,19 +194,24 @@ class Corrector:
             if self._calibrating is None:
                 raise
             self.gyro_agreement = mismatch.agreement
-            self.fallback = (f"{mismatch.summary} in the first frames (a camera on a "
-                             "gimbal, or one that stabilised its picture, moves otherwise)")
-            self.method = "dense"
-            self._method = DenseMethod(self.timing, self.config.dense, self._flows)
-            motions = [m for held in self._calibrating for m in self._method.push(*held)]
-            if frame is None:
-                motions += self._method.flush()
-            self._calibrating = None
-            return motions
-        if isinstance(self._method, GyroMethod) and self._method.calibration is not None:
-            self._calibrating = None
+            return self._hand_over(self._distrust or (
+                f"{mismatch.summary} in the first frames (a camera on a gimbal, or one that "
+                "stabilised its picture, moves otherwise)"), final=frame is None)
+        if isinstance(self._method, GyroMethod) and self._method.calibration is not None \
+                and self._calibrating is not None:
             self.gyro_agreement = self._method.calibration.agreement
+            if self._distrust:
+                return self._hand_over(self._distrust, final=frame is None)
+            self._calibrating = None
         return motions
+
+    def _hand_over(self, why: str, final: bool) -> list[FrameMotion]:
+        """Give the frames the gyro's calibration held to the dense method, from now on."""
+        self.fallback, self.method = why, "dense"
+        self._method = DenseMethod(self.timing, self.config.dense, self._flows)
+        held, self._calibrating = self._calibrating or [], None
+        motions = [m for frame in held for m in self._method.push(*frame)]
+        return motions + self._method.flush() if final else motions
 
     def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
         """Correct the pictures still held at the end of the clip."""
@@ -386,7 +398,7 @@ def correct_video(
             size=(source.info.width, source.info.height), identified=identified,
             estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
                                                                   fps=fps))
-        gyro_log, own, report = None, None, {}
+        gyro_log, own, report, distrust = None, None, {}, ""
         if gyro or config.undistort:
             config, lens = _with_lens(config, config.camera or identified,
                                       (source.info.width, source.info.height), resolved.fps)
@@ -398,10 +410,8 @@ def correct_video(
                 messages=(*resolved.messages, f"gyro: {said}"))
             report = {"source": said, "used": True, "explains": None, "why": ""}
             if own is not None and own.stabilised:
-                report.update(used=False, why=(
-                    f"the camera stabilised the picture itself (stabilisation "
-                    f"{own.stabilised!r}), so it no longer moves as the gyro says"))
-                config, gyro_log = dataclasses.replace(config, method="dense"), None
+                distrust = (f"the camera stabilised the picture itself (stabilisation "
+                            f"{own.stabilised!r}), so it no longer moves as the gyro says")
         for message in resolved.messages:
             if log:
                 log(message)
@@ -409,7 +419,7 @@ def correct_video(
             on_timing(resolved)
         corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
                               motion=given, fps=resolved.fps, gyro_log=gyro_log,
-                              gyro_fallback=own is not None)
+                              gyro_fallback=distrust or own is not None)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),
                           method=given.method if given else config.method)
         _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
