@@ -210,11 +210,10 @@ def _extended(path: np.ndarray, lo: int, hi: int, last: int | None, span: int
     samples there, plus the path's own departures from that line mirrored about the end
     and negated (an odd reflection about the line's end point): a pan that starts or
     ends with the clip goes on, and the end frames' shake cancels in a symmetric smoother
-    instead of being taken for the path. Measured on the 90-frame shake of
-    ``benchmarks/stabilise.py``'s simulated clips, smoothing the true path: high-frequency
-    residual 0.70 px along the bare line, 0.60 px with the mirrored departures (0.78 and
-    0.70 px in the first and last 27 frames); a smoother's free end, or an odd reflection
-    about the end frame itself, keeps more.
+    instead of being taken for the path. Measured by ``benchmarks/stabilise.py`` (90
+    simulated frames; residual jitter, px): shake 1.25 -> 1.14, walk 1.59 -> 1.53, pan
+    with shake 1.17 -> 1.06 from the bare line to the mirrored departures. A smoother's
+    free end, or an odd reflection about the end frame itself, keeps more.
     """
     idx = np.arange(lo, hi)
     end = last if last is not None else len(path) - 1
