@@ -180,7 +180,7 @@ class Corrector:
             if self._luma is not None:  # steps and roll, from points tracked across frames
                 tracks[self._count] = track(self._luma, small)
             self._luma = small
-            motions = self._stabilizer.push(motions, tracks)
+            motions = self._stabilizer.push(motions, tracks, self._poses(motions))
         self._count += 1
         return self._apply(motions)
 
@@ -205,6 +205,13 @@ class Corrector:
             self._calibrating = None
         return motions
 
+    def _poses(self, motions: list[FrameMotion]) -> dict[int, np.ndarray]:
+        """Return the gyro's pose of each frame for the stabiliser (none from other methods)."""
+        if not isinstance(self._method, GyroMethod):
+            return {}
+        poses = {fm.index: self._method.pose(fm.start) for fm in motions}
+        return {k: p for k, p in poses.items() if p is not None}
+
     def _hand_over(self, why: str, final: bool) -> list[FrameMotion]:
         """Give the frames the gyro's calibration held to the dense method, from now on."""
         self.fallback, self.method = why, "dense"
@@ -217,7 +224,8 @@ class Corrector:
         """Correct the pictures still held at the end of the clip."""
         motions = self._measure(None)
         if self._stabilizer is not None:
-            motions = self._stabilizer.push(motions) + self._stabilizer.flush()
+            motions = (self._stabilizer.push(motions, poses=self._poses(motions))
+                       + self._stabilizer.flush())
         return self._apply(motions)
 
     def _apply(self, motions: list[FrameMotion]) -> list[tuple[list[np.ndarray], FrameMotion]]:

@@ -340,6 +340,8 @@ class Stabilizer:
         self._n = 0
         self._step = np.zeros(2)
         self._tracks: dict[int, np.ndarray] = {}
+        self._poses: dict[int, np.ndarray] = {}
+        self._gyro = False  # steps from a gyro: its roll is no noise to leave alone
         w, h = size
         self._centre = ((w - 1) / 2.0, (h - 1) / 2.0)
         #: The roll a frame may be turned by: what uses half the crop's zoom at most.
@@ -350,8 +352,8 @@ class Stabilizer:
         self._prev: FrameMotion | None = None
         self._done = 0
 
-    def push(self, motions: list[FrameMotion], tracks: dict[int, np.ndarray] | None = None
-             ) -> list[FrameMotion]:
+    def push(self, motions: list[FrameMotion], tracks: dict[int, np.ndarray] | None = None,
+             poses: dict[int, np.ndarray] | None = None) -> list[FrameMotion]:
         """Add frames' motions; return those now reframed, in order.
 
         Parameters
@@ -360,8 +362,14 @@ class Stabilizer:
         tracks : dict, optional
             Frame index ``k`` -> :func:`track` from frame ``k - 1`` to ``k`` (without, the
             steps are the scanline velocity's integral and the roll is not stabilised).
+        poses : dict, optional
+            Frame index ``k`` -> the picture's position and roll at its reference time by
+            a gyro (:meth:`unjello.motion.gyro.GyroMethod.pose`). Where two consecutive
+            frames have one, their difference is the step, and the roll is smoothed
+            however little it wobbles (a gyro's roll is not the tracker's noise).
         """
         self._tracks.update(tracks or {})
+        self._poses.update(poses or {})
         for fm in motions:
             if self._n == len(self._path):
                 self._path = np.concatenate([self._path, np.zeros_like(self._path)])
@@ -372,7 +380,10 @@ class Stabilizer:
                 step = None
                 if fm.ok and self._prev.ok:
                     pts = self._tracks.pop(fm.index, None)
-                    if pts is not None:
+                    if fm.index in self._poses and self._prev.index in self._poses:
+                        step = self._poses[fm.index] - self._poses[self._prev.index]
+                        self._gyro = True
+                    elif pts is not None:
                         step = tracked_step(pts, self._prev, fm, self._centre)
                     if step is None:
                         step = np.append(reference_step(self._prev, fm, self.timing), 0.0)
@@ -381,6 +392,8 @@ class Stabilizer:
                 self._path[self._n, 2] = self._path[self._n - 1, 2] + (
                     step[2] if step is not None else 0.0)
             self._n += 1
+            if self._prev is not None:
+                self._poses.pop(self._prev.index, None)
             self._prev = fm
             self._held.append(fm)
         return self._ready(final=False)
@@ -402,7 +415,8 @@ class Stabilizer:
             # A roll that wobbles less than ROLL_FLOOR is left alone, fading in up to twice
             # that: below it the measurement's own noise is most of what would be "smoothed".
             wobble = float(np.sqrt(np.mean(rolls ** 2)))
-            roll = float(np.clip(wobble / ROLL_FLOOR - 1.0, 0.0, 1.0)) * rolls[self.radius]
+            fade = 1.0 if self._gyro else float(np.clip(wobble / ROLL_FLOOR - 1.0, 0.0, 1.0))
+            roll = fade * rolls[self.radius]
             m = np.maximum(self.margin, 1e-6)
             limited = np.append(m * np.tanh(shift / m),
                                 self.max_angle * np.tanh(roll / max(self.max_angle, 1e-9)))

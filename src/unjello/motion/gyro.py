@@ -545,6 +545,22 @@ class GyroMethod:
             self._calibrate()
         return self._ready()
 
+    def pose(self, start: float) -> np.ndarray | None:
+        """Where the gyro puts the picture at the reference time of the frame at ``start``.
+
+        The integrated rotation ``phi = M Theta(t_ref)`` seen as the content's position,
+        as :func:`unjello.stabilize.tracked_step` measures it between frames: ``(f phi_y,
+        -f phi_x)`` px and the roll ``phi_z`` (radians) -- the small-angle image motion of
+        :func:`gyro_field`'s velocity, integrated. None before the calibration.
+        """
+        cal = self.calibration
+        if cal is None:
+            return None
+        h = self._size[0]
+        t = cal.offset + self.timing.reference_time(h, start) * self.frame_interval
+        phi = self.log.theta(np.array([t]))[0] @ cal.axes.T
+        return np.array([cal.focal * phi[1], -cal.focal * phi[0], phi[2]])
+
     def _measure(self, frame: np.ndarray) -> None:
         """Row flows of the newest pair, in full-frame pixels."""
         h, w = frame.shape[:2]
