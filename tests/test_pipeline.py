@@ -314,27 +314,3 @@ def test_the_paper_method_follows_a_720p_pan_from_rest(scene):
     assert max(np.abs(f.displacement).max() for f in traj.frames) < 40
     _no_frame_worse(out, sim)
 
-
-def test_a_gyro_known_not_to_describe_the_picture_is_measured_but_not_used(scene):
-    """The camera stabilised its picture itself: its gyro (here one that fits) is
-    calibrated only to say how much it explains, and the frames go to the dense method,
-    whose motion is then exactly what asking for the dense method gives."""
-    from unjello.motion.gyro import GyroConfig, GyroLog
-    from unjello.pipeline import Corrector
-    from unjello.simulate import gyro_samples
-
-    timing = SensorTiming(1.0)
-    frames = [s.rolling for s in simulate(scene, Motion("pan", fps=25.0, speed=6.0), timing,
-                                          12, size=(192, 144))]
-    t, rates = gyro_samples(Motion("pan", fps=25.0, speed=6.0), 1500.0, 12 / 25)
-    config = CorrectionConfig(method="gyro", gyro=GyroConfig(sync_frames=8))
-    corr = Corrector(timing, config, fps=25.0, gyro_log=GyroLog(t, rates),
-                     gyro_fallback="stabilised in camera")
-    got = [fm for i, f in enumerate(frames) for _, fm in corr.push([f], float(i))]
-    got += [fm for _, fm in corr.flush()]
-    assert corr.method == "dense" and corr.fallback == "stabilised in camera"
-    assert corr.gyro_agreement is not None and corr.gyro_agreement > 0.9
-    _, dense = correct_frames(frames, timing)
-    assert len(got) == len(dense.frames) == 12
-    for a, b in zip(got, dense.frames, strict=True):
-        assert np.array_equal(a.displacement, b.displacement)

@@ -28,7 +28,8 @@ from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.telemetry import camera_of
 from .motion.dense import DenseMethod
-from .motion.gyro import GyroLog, GyroMethod, GyroMismatch
+from .motion.fallback import GyroOrDense
+from .motion.gyro import GyroLog
 from .motion.paper import PaperMethod
 from .readout import estimate_readout_file
 from .stabilize import Stabilizer, track, tracking_copy
@@ -89,21 +90,14 @@ class Corrector:
         Warp only these frames (by index from the first pushed); the others come back as
         they were read, with their motion (the preview wants one frame of a window).
     gyro_fallback : bool or str
-        With the gyro method: when the gyro does not explain the footage's motion (a
-        camera on a gimbal), measure the motion with the dense method instead of raising
-        :class:`~unjello.motion.gyro.GyroMismatch` (the frames the calibration held are
-        given to it). :attr:`fallback` then says why. A string is a reason known
-        beforehand not to use the gyro (the camera stabilised its picture): it is
-        calibrated only to say how much it explains, and the dense method measures.
+        With the gyro method, what a gyro that does not fit the picture leads to
+        (:class:`~unjello.motion.fallback.GyroOrDense`): False, an error; True, the
+        dense method; a string, the dense method even if it fits (the reason).
 
     Attributes
     ----------
     method : str
         The method that measures the motion (``'dense'`` after a fallback).
-    fallback : str
-        Why the gyro was not used; empty when it was (or was not asked for).
-    gyro_agreement : float or None
-        Share of the row motion the gyro explains, once calibrated or given up.
     """
 
     def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
@@ -114,14 +108,7 @@ class Corrector:
         self.timing = timing
         self.config = config
         self.max_value = max_value
-        self.method = config.method if motion is None else "replay"
-        self.fallback = ""
-        self.gyro_agreement: float | None = None
-        self._flows = flows
-        self._distrust = gyro_fallback if isinstance(gyro_fallback, str) else ""
-        # Lumas the gyro calibration holds, for the dense method should the gyro not fit.
-        self._calibrating: list[tuple[np.ndarray, float]] | None = None
-        self._method: PaperMethod | DenseMethod | GyroMethod | _Replay
+        self._method: PaperMethod | DenseMethod | GyroOrDense | _Replay
         if motion is not None:
             self._method = _Replay(motion)
         elif config.method == "paper":
@@ -131,13 +118,8 @@ class Corrector:
                 if not config.gyro.path:
                     raise InputError("the gyro method needs a gyro log: give gyro=FILE")
                 gyro_log = read_gyro(config.gyro.path, config.gyro.layout, config.gyro.units)
-            self._method = GyroMethod(timing, gyro_log, config.gyro, fps)
-            if gyro_fallback:
-                self._calibrating = []
-                if self._method.calibration is not None:  # all given: nothing to calibrate
-                    if self._distrust:
-                        self._hand_over(self._distrust, final=False)
-                    self._calibrating = None
+            self._method = GyroOrDense(timing, gyro_log, config.gyro, config.dense, fps,
+                                       flows, gyro_fallback)
         else:
             self._method = DenseMethod(timing, config.dense, flows)
         lens = None
@@ -170,7 +152,7 @@ class Corrector:
         mv = self.max_value or _max_value(planes[0].dtype)
         luma = _luma255(to_top_bottom(planes[0], self.timing.direction), mv)
         self._held.append(planes)
-        motions = self._measure((luma, start))
+        motions = self._method.push(luma, start)
         if self.config.stabilize.enabled:
             if self._stabilizer is None:
                 self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
@@ -184,45 +166,28 @@ class Corrector:
         self._count += 1
         return self._apply(motions)
 
-    def _measure(self, frame: tuple[np.ndarray, float] | None) -> list[FrameMotion]:
-        """Push ``(luma, start)`` to the method, or flush it; fall back from the gyro."""
-        if self._calibrating is not None and frame is not None:
-            self._calibrating.append(frame)
-        try:
-            motions = self._method.push(*frame) if frame is not None else self._method.flush()
-        except GyroMismatch as mismatch:
-            if self._calibrating is None:
-                raise
-            self.gyro_agreement = mismatch.agreement
-            return self._hand_over(self._distrust or (
-                f"{mismatch.summary} in the first frames (a camera on a gimbal, or one that "
-                "stabilised its picture, moves otherwise)"), final=frame is None)
-        if isinstance(self._method, GyroMethod) and self._method.calibration is not None \
-                and self._calibrating is not None:
-            self.gyro_agreement = self._method.calibration.agreement
-            if self._distrust:
-                return self._hand_over(self._distrust, final=frame is None)
-            self._calibrating = None
-        return motions
+    @property
+    def method(self) -> str:
+        """The method that measures the motion (``'dense'`` after a gyro's fallback)."""
+        if isinstance(self._method, GyroOrDense):
+            return self._method.method
+        return "replay" if isinstance(self._method, _Replay) else self.config.method
+
+    @property
+    def gyro(self) -> GyroOrDense | None:
+        """The gyro method and what became of it (None for the other methods)."""
+        return self._method if isinstance(self._method, GyroOrDense) else None
 
     def _poses(self, motions: list[FrameMotion]) -> dict[int, np.ndarray]:
         """Return the gyro's pose of each frame for the stabiliser (none from other methods)."""
-        if not isinstance(self._method, GyroMethod):
+        if self.gyro is None:
             return {}
-        poses = {fm.index: self._method.pose(fm.start) for fm in motions}
+        poses = {fm.index: self.gyro.pose(fm.start) for fm in motions}
         return {k: p for k, p in poses.items() if p is not None}
-
-    def _hand_over(self, why: str, final: bool) -> list[FrameMotion]:
-        """Give the frames the gyro's calibration held to the dense method, from now on."""
-        self.fallback, self.method = why, "dense"
-        self._method = DenseMethod(self.timing, self.config.dense, self._flows)
-        held, self._calibrating = self._calibrating or [], None
-        motions = [m for frame in held for m in self._method.push(*frame)]
-        return motions + self._method.flush() if final else motions
 
     def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
         """Correct the pictures still held at the end of the clip."""
-        motions = self._measure(None)
+        motions = self._method.flush()
         if self._stabilizer is not None:
             motions = (self._stabilizer.push(motions, poses=self._poses(motions))
                        + self._stabilizer.flush())
@@ -432,12 +397,11 @@ def correct_video(
                           method=given.method if given else config.method)
         _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
                 resolved, progress)
-    if report:
-        if corrector.fallback:
-            report.update(used=False, why=corrector.fallback)
-        report["explains"] = (None if corrector.gyro_agreement is None
-                              or not np.isfinite(corrector.gyro_agreement)
-                              else round(corrector.gyro_agreement, 3))
+    if report and corrector.gyro is not None:
+        if corrector.gyro.fallback:
+            report.update(used=False, why=corrector.gyro.fallback)
+        share = corrector.gyro.agreement
+        report["explains"] = None if share is None or not np.isfinite(share) else round(share, 3)
         if not report["used"] and log:
             log(f"warning: the camera's own gyro was not used: {report['why']}; the dense "
                 "method measured the motion instead")
@@ -481,7 +445,7 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
     held: deque[Picture] = deque()
 
     def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
-        if corrector.fallback:  # before the motion JSON's header is written
+        if corrector.gyro is not None:  # before the motion JSON's header is written
             traj.method = corrector.method
         for planes, fm in items:
             picture = held.popleft()
