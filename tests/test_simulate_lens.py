@@ -101,8 +101,9 @@ def test_distortion_is_four_numbers(tmp_path):
 
 def test_undistort_gives_the_pinhole_picture(fisheye_clip, tmp_path):
     """--undistort: the corrected fisheye clip becomes the pinhole picture of the same
-    focal length, which the simulator renders as its own truth. Measured: 38.90 dB against
-    it (the fisheye truth against it: 14.48 dB)."""
+    focal length, which the simulator renders as its own truth, in one resampling (the
+    undistortion composed with the correction's maps). Measured: 42.71 dB against it;
+    38.90 dB when the undistortion was a second warp (the fisheye truth: 14.48 dB)."""
     sim, log_path = fisheye_clip
     scene = cv2.resize(data.astronaut(), (1024, 1024))
     pinhole, _ = simulate_rotation(scene, _rate, SensorTiming(1.0), 8, size=(240, 180),
@@ -112,7 +113,7 @@ def test_undistort_gives_the_pinhole_picture(fisheye_clip, tmp_path):
     out, _ = correct_frames([s.rolling for s in sim], SensorTiming(1.0), config=cfg, fps=30.0)
     flat = np.mean([psnr(o, p.truth, 12) for o, p in zip(out, pinhole, strict=True)])
     curved = np.mean([psnr(s.truth, p.truth, 12) for s, p in zip(sim, pinhole, strict=True)])
-    assert flat > 30 and flat > curved + 10
+    assert flat > 41 and flat > curved + 25
     with pytest.raises(SettingsError, match="undistort needs the lens"):
         correct_frames([s.rolling for s in sim[:2]], SensorTiming(1.0),
                        config=CorrectionConfig(undistort=True))

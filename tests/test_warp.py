@@ -144,3 +144,25 @@ def test_field_maps_on_a_coarse_grid_take_frame_pixels():
     # source position held would smear the edge pixels, as cv2.resize alone did).
     assert np.allclose(fx - np.arange(90), 6.0, atol=1e-4)
     assert np.allclose(fy - np.arange(60)[:, None], -3.0, atol=1e-4)
+
+
+def test_undistorting_reads_the_same_in_every_scan_direction(scene):
+    """--undistort is composed with the correction's maps in the frames' top-bottom
+    orientation; the fisheye model is radial, so with no motion every scan direction
+    gives the input undistorted in its own orientation, in one resampling."""
+    import cv2
+
+    from unjello.timing import DIRECTIONS, to_top_bottom
+    from unjello.trajectory import FrameMotion
+    from unjello.warp import PictureWarper, apply_maps, undistort_maps
+
+    lens = (0.06, 0.03, -0.005, 0.002)
+    img = cv2.resize(scene, (160, 120))
+    expected = apply_maps(img, undistort_maps((120, 160), 110.0, lens))
+    for direction in DIRECTIONS:
+        h = to_top_bottom(img, direction).shape[0]
+        still = FrameMotion(0, 0.0, np.zeros((h, 2)), np.zeros((h, 2)))
+        warper = PictureWarper(SensorTiming(1.0, direction), undistort=(110.0, lens))
+        out = warper([img], still)[0]
+        assert out.shape == img.shape
+        assert np.abs(out.astype(int) - expected).max() <= 1, direction

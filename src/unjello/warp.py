@@ -33,8 +33,8 @@ from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
            "splat", "remap", "apply_maps", "fill_holes", "field_maps",
-           "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "neighbour_sources",
-           "fill_from_neighbours"]
+           "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "compose_maps",
+           "neighbour_sources", "fill_from_neighbours"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -568,41 +568,60 @@ class PictureWarper:
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
+            scale = plane.shape[1] / planes[0].shape[1]  # chroma: the lens in its pixels
             if maps is None and self.warp == "splat":
                 res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
+                if self.undistort is not None:  # a forward splat: a second resampling
+                    res = apply_maps(res, self._lens(ph, pw, scale))
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
                         reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
                                                 out=self._buffer(ph, pw)),
                                      motion.reframe, (h, w)))
+                    if self.undistort is not None:  # one resampling: the maps composed
+                        sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
+                                                       self._lens(ph, pw, scale))
                 res = apply_maps(tb, sized[(ph, pw)], fill=fill)
                 if maps is not None and sources:
                     if (ph, pw) not in parts:
                         parts[(ph, pw)] = neighbour_sources(
-                            sized[(ph, pw)], [flow for _, flow in sources], maps)
+                            sized[(ph, pw)], [flow for _, flow in sources],
+                            maps if self.undistort is None else None)
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
-            res = from_top_bottom(res, d)
-            if self.undistort is not None:
-                res = self._undistorted(res, planes[0].shape[1])
-            out.append(res)
+            out.append(from_top_bottom(res, d))
         return out
 
-    def _undistorted(self, plane: np.ndarray, width: int) -> np.ndarray:
-        """Return the plane without its lens's curvature (maps cached per plane size)."""
+    def _lens(self, ph: int, pw: int, scale: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return the lens's undistortion maps for a top-bottom plane of ``ph x pw``.
+
+        The fisheye model is radial about the centre, so it reads the same in every
+        orientation of the picture; ``scale`` is the plane's pixels per first-plane pixel.
+        """
         assert self.undistort is not None
-        ph, pw = plane.shape[:2]
         if (ph, pw) not in self._lens_maps:
             focal, k = self.undistort
-            self._lens_maps[(ph, pw)] = undistort_maps((ph, pw), focal * pw / width, k)
-        return apply_maps(plane, self._lens_maps[(ph, pw)])
+            self._lens_maps[(ph, pw)] = undistort_maps((ph, pw), focal * scale, k)
+        return self._lens_maps[(ph, pw)]
 
     def _buffer(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
         """Map buffers for planes of ``h x w``, reused from frame to frame."""
         if (h, w) not in self._buffers:
             self._buffers[(h, w)] = (np.empty((h, w), np.float32), np.empty((h, w), np.float32))
         return self._buffers[(h, w)]
+
+
+def compose_maps(first: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, np.ndarray]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Backward maps of warping by ``first``, then by ``then``: ``first(then(o))``.
+
+    ``then`` gives, for every output pixel, where to read the picture ``first`` makes;
+    ``first`` is sampled there (bilinear, the edge repeated), so the picture is
+    resampled once instead of twice.
+    """
+    return tuple(cv2.remap(m, then[0], then[1], cv2.INTER_LINEAR,  # type: ignore[return-value]
+                           borderMode=cv2.BORDER_REPLICATE) for m in first)
 
 
 def undistort_maps(size: tuple[int, int], focal: float, k: Sequence[float]
