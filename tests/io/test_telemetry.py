@@ -66,7 +66,7 @@ def test_the_gyro_method_uses_the_cameras_own_gyro(tmp_path, scene):
     assert any(m.startswith("gyro: the camera's own gyro") for m in summary["messages"])
     sim = list(simulate(scene, Motion("pan", speed=6.0), SensorTiming(1.0), 32, size=(192, 144)))
     err, unc = motion_file_error(tmp_path / "m.json", sim)
-    assert err < 0.1 * unc
+    assert err < 0.05 * unc  # measured: 0.00004x
 
 
 def test_a_gyro_that_does_not_fit_hands_the_clip_to_the_dense_method(tmp_path, scene):
