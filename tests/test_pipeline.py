@@ -313,4 +313,3 @@ def test_the_paper_method_follows_a_720p_pan_from_rest(scene):
     assert err < 0.05 * np.mean([displacement_error(None, s.motion) for s in sim])
     assert max(np.abs(f.displacement).max() for f in traj.frames) < 40
     _no_frame_worse(out, sim)
-

@@ -158,10 +158,14 @@ class Corrector:
                 self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
                                               (luma.shape[1], luma.shape[0]), self.fps)
             tracks = {}
-            small = tracking_copy(luma)
-            if self._luma is not None:  # steps and roll, from points tracked across frames
-                tracks[self._count] = track(self._luma, small)
-            self._luma = small
+            gyro = self.gyro
+            if gyro is not None and gyro.method == "gyro" and gyro.agreement is not None:
+                self._luma = None  # calibrated and used: its poses give every step
+            else:
+                small = tracking_copy(luma)
+                if self._luma is not None:  # steps and roll, from points tracked across frames
+                    tracks[self._count] = track(self._luma, small)
+                self._luma = small
             motions = self._stabilizer.push(motions, tracks, self._poses(motions))
         self._count += 1
         return self._apply(motions)

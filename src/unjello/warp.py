@@ -620,8 +620,9 @@ def compose_maps(first: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, n
     ``first`` is sampled there (bilinear, the edge repeated), so the picture is
     resampled once instead of twice.
     """
-    return tuple(cv2.remap(m, then[0], then[1], cv2.INTER_LINEAR,  # type: ignore[return-value]
-                           borderMode=cv2.BORDER_REPLICATE) for m in first)
+    mx, my = (cv2.remap(m, then[0], then[1], cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REPLICATE) for m in first)
+    return mx, my
 
 
 def undistort_maps(size: tuple[int, int], focal: float, k: Sequence[float]
