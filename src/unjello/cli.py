@@ -243,7 +243,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "frame_rate": decided["fps"], "sources": decided["sources"],
             "gyro": decided["gyro"], "stabilized": stabilised, "messages": messages}))
     elif not quiet:
-        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:g} "
+        click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:.4g} "
                    f"({decided['sources']['readout']}), "
                    f"{len(traj) / max(seconds, 1e-9):.1f} fps)", err=True)
 
