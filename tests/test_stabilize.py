@@ -12,7 +12,14 @@ from unjello.exports import backward_maps
 from unjello.io.frames import write_image
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
-from unjello.stabilize import StabilizeConfig, Stabilizer, reference_step, smooth_path
+from unjello.stabilize import (
+    COHERENT,
+    StabilizeConfig,
+    Stabilizer,
+    reference_step,
+    smooth_path,
+    step_coherence,
+)
 from unjello.timing import SensorTiming, pixel_grid
 from unjello.trajectory import FrameMotion, Reframe, Trajectory
 from unjello.warp import apply_maps, reframe_maps
@@ -253,3 +260,18 @@ def test_the_gyro_method_stabilises_along_the_gyros_path(shaky, stabilised):
         errors[name] = np.sqrt(np.mean((err - err.mean(axis=0)) ** 2, axis=0))
     assert (errors["gyro"] < 0.02).all(), errors
     assert errors["gyro"].max() < errors["tracked"].max() / 2, errors
+
+
+def test_step_coherence_tells_a_real_turn_from_a_trackers_noise():
+    # A tracker's independent error on each frame pair: steps of white noise score
+    # 0 +- 1 (the units of step_coherence); a roll wobble of 1-3 Hz sampled at 30 fps,
+    # as small as the noise, scores far above COHERENT.
+    rng = np.random.default_rng(3)
+    noise = [step_coherence(np.cumsum(rng.normal(0, 1e-3, 55))) for _ in range(400)]
+    assert abs(np.mean(noise)) < 0.2
+    assert 0.7 < np.std(noise) < 1.3
+    assert np.mean(np.array(noise) > COHERENT) < 0.05
+    t = np.arange(55) / 30.0
+    for hz in (1.0, 2.0, 3.0):
+        wobble = 1e-3 * np.sin(2 * np.pi * hz * t + hz)
+        assert step_coherence(wobble + np.cumsum(rng.normal(0, 1e-4, 55))) > 2 * COHERENT
