@@ -50,6 +50,7 @@ def test_search_and_the_noisy_hero5():
     assert found.spread == pytest.approx((16.68, 33.3667), abs=1e-3)
     assert 16.68 < found.readout_ms < 33.37 and "1.78:1 modes at 29.97 fps" in found.modes
     assert 300 < found.focal < 800  # a wide lens on an 854 px wide picture
+    assert found.same_aspect and "none is" not in found.modes
     # 2.7K 60 fps: one profile, at that rate.
     assert cameras.match("HERO5 Black", 2704, 2028, 59.94).readout_ms == pytest.approx(8.3417)
     assert cameras.match("No Such Camera 3000") is None

@@ -116,6 +116,30 @@ def test_auto_estimates_when_nothing_states_it(tmp_path):
     assert weak.sources["readout"] == "default" and weak.messages[0].startswith("warning")
 
 
+def test_a_readout_borrowed_from_another_aspect_goes_after_a_reliable_estimate(tmp_path):
+    # The GoPro Max's only mode with a readout is its 360 one (4096x1344); a hero-mode
+    # clip (848x480) borrows it by default, says so, and with 'auto' a reliable estimate
+    # from the clip's motion goes first.
+    kw = {"size": (848, 480), "identified": "GoPro Max", "video_fps": 29.97}
+    r = _resolve(CorrectionConfig(), tmp_path, **kw)
+    assert r.sources["readout"] == "camera database (GoPro Max)"
+    assert "(4096x1344; none is 1.77:1)" in r.messages[0]
+    r = _resolve(CorrectionConfig(readout="auto"), tmp_path,
+                 estimate=lambda direction, fps: _Estimate(0.42), **kw)
+    assert r.timing.readout == 0.42 and r.sources["readout"] == "estimated from the motion"
+    assert "no mode of GoPro Max like this clip's" in r.messages[0]
+    weak = _resolve(CorrectionConfig(readout="auto"), tmp_path,
+                    estimate=lambda direction, fps: _Estimate(0.42, reliable=False), **kw)
+    assert weak.sources["readout"] == "camera database (GoPro Max)"
+    assert weak.timing.readout == pytest.approx(1.0)
+    # A clip of the camera's own aspect takes the database's readout without estimating.
+    def never(direction, fps):
+        raise AssertionError("estimated")
+    hero5 = _resolve(CorrectionConfig(readout="auto"), tmp_path, estimate=never,
+                     size=(854, 480), identified="GoPro HERO5 Black", video_fps=29.97)
+    assert hero5.sources["readout"] == "camera database (GoPro HERO5 Black)"
+
+
 def test_one_frame_rate_for_a_folder(tmp_path):
     folder = CorrectionConfig(readout="36ms")
     with pytest.raises(SettingsError, match="needs the frame rate: a folder states none"):

@@ -87,6 +87,8 @@ class CameraMatch:
         Focal length in pixels of the clip's width (from modes of its aspect ratio).
     k : tuple of float or None
         Fisheye distortion coefficients of those modes.
+    same_aspect : bool
+        Whether those modes have the clip's aspect ratio.
     """
 
     camera: str
@@ -98,6 +100,9 @@ class CameraMatch:
     modes: str
     focal: float | None = None
     k: tuple[float, ...] | None = None
+    #: Whether the modes used share the clip's aspect ratio (a sensor mode's readout is
+    #: its own: another aspect's is a guess). False where the clip's size is unknown.
+    same_aspect: bool = False
 
     def describe(self) -> str:
         """One line: the readout, and what it rests on."""
@@ -199,6 +204,11 @@ def match(camera: str, width: int | None = None, height: int | None = None,
         picked = [m for m in timed if keep(m)]
         if picked:
             break
+    sized = bool(ratio) and all(same_aspect(m) for m in picked)
+    if ratio and not sized:  # say which sensor modes the readout is borrowed from
+        sizes = sorted({f"{m.width}x{m.height}" for m in picked})
+        label += (f" ({', '.join(sizes[:3])}{', ...' if len(sizes) > 3 else ''}; "
+                  f"none is {aspect})")
     signed = np.concatenate([np.full(m.readout_n, m.readout_ms) for m in picked])
     values = np.abs(signed)
     med = float(np.median(values))
@@ -210,4 +220,4 @@ def match(camera: str, width: int | None = None, height: int | None = None,
     ks = [m.k for m in lens if m.k]
     return CameraMatch(picked[0].name, round(med, 4), "bottom-top" if upward else "top-bottom",
                        int(values.size), agree, (float(values.min()), float(values.max())), label,
-                       focal, tuple(np.median(ks, axis=0).tolist()) if ks else None)
+                       focal, tuple(np.median(ks, axis=0).tolist()) if ks else None, sized)

@@ -549,6 +549,19 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
                                 "frame_readout_time")
         stated = stated or stated_readout(path)
         found = None if stated is not None else _database(config, identified, size, fps)
+        est = None
+        if (found is not None and not found.same_aspect and request == "auto"
+                and estimate is not None):
+            # A readout borrowed from sensor modes of another aspect ratio is a guess: a
+            # reliable estimate from the clip's own motion goes first.
+            est = estimate(direction, fps)
+            if est.reliable:
+                messages.append(f"the camera database has no mode of {found.camera} like "
+                                "this clip's, so its readout is not used")
+                found = None
+            else:
+                messages.append(f"the motion is too weak or too uniform to estimate the "
+                                f"readout (confidence {est.confidence:.2f})")
         if stated is not None:
             sources["readout"] = stated.source
             readout = ratio(Milliseconds(stated.milliseconds))
@@ -560,7 +573,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
             if config.direction is None and found.direction != direction:
                 direction, sources["direction"] = found.direction, sources["readout"]
         elif request == "auto" and estimate is not None:
-            est = estimate(direction, fps)
+            est = est or estimate(direction, fps)
             readout = float(est.readout)
             if est.reliable:
                 sources["readout"] = "estimated from the motion"
