@@ -17,8 +17,9 @@ outputs only, the same way for both.
 2. Real clips (``../shared/data/sequences``: the phone in a car, the two GoPro files;
    the first ``--frames`` frames): the high-frequency energy of the output's global
    inter-frame motion (its part above about 1 Hz; x, y and the rotation as px at the
-   frame's corner), for the input, vid.stab (its defaults, with its own static zoom)
-   and unjello (``--stabilize``, automatic crop). The phone clip again with its gyro log
+   frame's corner: each as an RMS, and their squares summed as the energy), for the
+   input, vid.stab (its defaults, with its own static zoom) and unjello
+   (``--stabilize``, automatic crop). The phone clip again with its gyro log
    (``--method gyro``): the path from the gyro's rotation instead of tracked points.
 3. Speed: ``unjello correct`` with and without ``--stabilize`` on a 1080p clip of 150
    frames, two alternating rounds in one run (``--speed``).
@@ -286,7 +287,8 @@ def hf_energy(frames: list[np.ndarray]) -> tuple[float, float]:
 def real(work: Path, missing: str | None, frames: int, only: str = "") -> None:
     print(f"\n2. real clips, first {frames} frames: high-frequency motion of the output "
           "(px RMS above ~1 Hz: translation / rotation at the corner); lower is steadier")
-    print(f"{'clip':26}{'input':>16}{'vid.stab':>16}{'unjello':>16}   unjello's zoom")
+    print(f"{'clip':26}{'input':>16}{'vid.stab':>16}{'unjello':>16}   unjello's zoom   "
+          "energy (px^2: input / vid.stab / unjello)")
     phone = SHARED / "sequences" / "phone_gyro"
     clips = {"phone in a car (reshape)": (phone / "reshape", []),
              "phone, its gyro's path": (phone / "reshape",
@@ -327,9 +329,11 @@ def real(work: Path, missing: str | None, frames: int, only: str = "") -> None:
         cells.append(hf_energy(_frames(stab)))
         zooms = [f.get("zoom", 1.0) for f in json.loads(
             stab.with_suffix(".json").read_text())["frames"]]
+        # The high-frequency energy: translation and rotation together (px^2 a frame).
+        energy = " / ".join(f"{a * a + b * b:.2f}" if np.isfinite(a) else "-" for a, b in cells)
         print(f"{name:26}" + "".join(f"{a:9.2f} / {b:4.2f}" if np.isfinite(a) else
                                      f"{'skipped':>16}" for a, b in cells)
-              + f"   {min(zooms):.3f}-{max(zooms):.3f}", flush=True)
+              + f"   {min(zooms):.3f}-{max(zooms):.3f}   {energy}", flush=True)
 
 
 def speed(work: Path, frames: int = 150) -> None:
