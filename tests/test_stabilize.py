@@ -208,33 +208,38 @@ def test_plot_shows_the_camera_path_and_the_smoothed_one(stabilised, tmp_path):
     assert path.shape == (len(traj.frames), 3) and not path[0].any()
 
 
+def _turned(scene, angles):
+    """320x240 crops of ``scene`` turned by each angle (degrees) about its centre."""
+    img = cv2.resize(scene, (440, 440))
+    return [cv2.warpAffine(img, cv2.getRotationMatrix2D((220, 220), a, 1.0),
+                           (440, 440))[100:340, 60:380] for a in angles]
+
+
+def _tracked_roll(pictures):
+    """RMS roll per frame (radians) between 320x240 pictures, as the stabiliser tracks it."""
+    from unjello.stabilize import track, tracked_step, tracking_copy
+
+    zero = np.zeros((240, 2))
+    grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY).astype(np.float32) for f in pictures]
+    steps = [tracked_step(track(tracking_copy(a), tracking_copy(b)),
+                          FrameMotion(0, 0.0, zero, zero),
+                          FrameMotion(1, 1.0, zero, zero), (159.5, 119.5))[2]
+             for a, b in zip(grey[:-1], grey[1:], strict=True)]
+    return float(np.sqrt(np.mean(np.square(steps))))
+
+
 def test_roll_is_taken_out(scene):
     # Frames turned by a 2 degree, 12-frame wobble and a 1 degree, 5-frame one (read
     # almost at once): measured 1.08 -> 0.32 degrees of roll per frame (RMS) at 480x360.
-    from unjello.stabilize import track, tracked_step, tracking_copy
-
-    img = cv2.resize(scene, (440, 440))
     angles = (2.0 * np.sin(2 * np.pi * np.arange(36) / 12)
               + 1.0 * np.sin(2 * np.pi * np.arange(36) / 5))
-    frames = [cv2.warpAffine(img, cv2.getRotationMatrix2D((220, 220), a, 1.0),
-                             (440, 440))[100:340, 60:380] for a in angles]
-    timing = SensorTiming(0.05)
+    frames = _turned(scene, angles)
     config = CorrectionConfig().with_options(stabilize=True, crop="0.1")
-    out, traj = correct_frames(frames, timing, config=config)
-    zero = np.zeros((240, 2))
-
-    def rolls(pictures):
-        grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY).astype(np.float32) for f in pictures]
-        steps = [tracked_step(track(tracking_copy(a), tracking_copy(b)),
-                              FrameMotion(0, 0.0, zero, zero),
-                              FrameMotion(1, 1.0, zero, zero), (159.5, 119.5))[2]
-                 for a, b in zip(grey[:-1], grey[1:], strict=True)]
-        return np.sqrt(np.mean(np.square(steps)))
-
+    out, traj = correct_frames(frames, SensorTiming(0.05), config=config)
     # The steps are measured as the frames were made.
-    assert rolls(frames) == pytest.approx(np.sqrt(np.mean(np.radians(np.diff(angles)) ** 2)),
-                                          rel=0.02)
-    assert rolls(out) < 0.45 * rolls(frames)
+    assert _tracked_roll(frames) == pytest.approx(
+        np.sqrt(np.mean(np.radians(np.diff(angles)) ** 2)), rel=0.02)
+    assert _tracked_roll(out) < 0.45 * _tracked_roll(frames)
     assert any(abs(f.reframe.angle) > 0.005 for f in traj.frames)
 
 
@@ -282,23 +287,8 @@ def test_a_small_roll_that_steps_coherently_is_taken_out(scene):
     # tracked roll is mostly noise, but its steps follow one another (step_coherence), so
     # it is smoothed. Measured at 320x240: 0.022 -> 0.003 degrees per frame (RMS); with
     # the floor alone 0.022 -> 0.021, no frame turned.
-    from unjello.stabilize import track, tracked_step, tracking_copy
-
-    img = cv2.resize(scene, (440, 440))
-    angles = 0.06 * np.sin(2 * np.pi * np.arange(36) / 12)
-    frames = [cv2.warpAffine(img, cv2.getRotationMatrix2D((220, 220), a, 1.0),
-                             (440, 440))[100:340, 60:380] for a in angles]
+    frames = _turned(scene, 0.06 * np.sin(2 * np.pi * np.arange(36) / 12))
     config = CorrectionConfig().with_options(stabilize=True, crop="0.1")
     out, traj = correct_frames(frames, SensorTiming(0.05), config=config)
-    zero = np.zeros((240, 2))
-
-    def rolls(pictures):
-        grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY).astype(np.float32) for f in pictures]
-        steps = [tracked_step(track(tracking_copy(a), tracking_copy(b)),
-                              FrameMotion(0, 0.0, zero, zero),
-                              FrameMotion(1, 1.0, zero, zero), (159.5, 119.5))[2]
-                 for a, b in zip(grey[:-1], grey[1:], strict=True)]
-        return float(np.degrees(np.sqrt(np.mean(np.square(steps)))))
-
-    assert rolls(out) < 0.4 * rolls(frames)
+    assert _tracked_roll(out) < 0.4 * _tracked_roll(frames)
     assert any(abs(f.reframe.angle) > 2e-4 for f in traj.frames)

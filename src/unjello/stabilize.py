@@ -453,10 +453,11 @@ class Stabilizer:
             # that: below it the measurement's own noise is most of what would be "smoothed"
             # -- unless its steps follow one another as a real turn's do and a tracker's
             # independent errors do not (COHERENT white-noise spreads, fully from twice).
-            wobble = float(np.sqrt(np.mean(rolls ** 2)))
-            coherent = step_coherence(window[:, 2]) / COHERENT - 1.0
-            fade = 1.0 if self._gyro else float(
-                np.clip(max(wobble / ROLL_FLOOR - 1.0, coherent), 0.0, 1.0))
+            fade = 1.0
+            if not self._gyro:
+                wobble = float(np.sqrt(np.mean(rolls ** 2)))
+                coherent = step_coherence(window[:, 2]) / COHERENT - 1.0
+                fade = float(np.clip(max(wobble / ROLL_FLOOR - 1.0, coherent), 0.0, 1.0))
             roll = fade * rolls[self.radius]
             m = np.maximum(self.margin, 1e-6)
             limited = np.append(m * np.tanh(shift / m),
