@@ -11,15 +11,23 @@
 4. Peak resident memory of `unjello correct` (a child process) on 100 and 1000 frames
    at 640x360, and on a 4K (3840x2160) clip.
 
+With ``--profile`` it measures instead where the CPU time goes, stage by stage, at 1080p
+and 4K: the clip decoded, corrected and encoded one stage after another in this process,
+single-threaded (OpenCV's threads off, no pool), each stage's CPU time (user + sys) per
+frame, exclusive of the stages it calls; and the wall ratio of `unjello correct` to a
+plain transcode of the same clip, measured in the same run.
+
 Usage::
 
     python benchmarks/speed.py [--frames 300] [--rounds 3] [--skip-memory]
+    python benchmarks/speed.py --profile [--frames 60] [--k4-frames 20]
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
+import importlib
 import io
 import pstats
 import subprocess
@@ -119,6 +127,146 @@ def stage_run(pictures: list, timing: SensorTiming, config: CorrectionConfig) ->
     return time.perf_counter() - t
 
 
+#: What the profile measures: a label and the functions (module, attribute) it covers.
+STAGES = (
+    ("luma (to top-bottom, grey)", [("unjello.pipeline", "_luma255"),
+                                    ("unjello.pipeline", "to_top_bottom")]),
+    ("flow: DIS (and its large-motion rerun)", [("unjello.motion.flow", "optical_flow")]),
+    ("flow: inverse", [("unjello.motion.flow", "invert_flow")]),
+    ("flow: consistency", [("unjello.motion.flow", "consistent")]),
+    ("row summaries", [("unjello.motion.dense", "row_flows"),
+                       ("unjello.motion.dense", "half_row_flows")]),
+    ("trajectory solve", [("unjello.motion.dense", "solve_camera_trajectory")]),
+    ("per-pixel: snap to global", [("unjello.motion.dense", "snap_to_global")]),
+    ("per-pixel: residual", [("unjello.motion.dense.DenseMethod", "_residual")]),
+    ("per-pixel: fold / failed-flow checks", [("unjello.motion.dense", "fold_share"),
+                                              ("unjello.motion.dense", "failed_blobs"),
+                                              ("unjello.motion.dense", "keep_whole"),
+                                              ("unjello.motion.dense.DenseMethod",
+                                               "_turn_back_spinning")]),
+    ("motion: the rest (working copy, field)", [("unjello.motion.dense.DenseMethod", "push"),
+                                                ("unjello.motion.dense.DenseMethod",
+                                                 "flush")]),
+    ("backward map (fixed point, working grid)", [("unjello.warp", "field_maps")]),
+    ("map upsampling (per plane size)", [("unjello.warp", "resize_maps")]),
+    ("remap (every plane)", [("unjello.warp", "apply_maps")]),
+    ("fill from neighbours", [("unjello.warp", "neighbour_sources"),
+                              ("unjello.warp", "fill_from_neighbours")]),
+    ("warp: the rest", [("unjello.warp.PictureWarper", "__call__")]),
+)
+
+
+class StageClock:
+    """CPU time (user + sys of the process) per stage, exclusive of nested stages."""
+
+    def __init__(self) -> None:
+        self.totals: dict[str, float] = {}
+        self._stack: list[list] = []  # [label, start, time spent in nested stages]
+        self._undo: list[tuple[object, str, object]] = []
+
+    def __enter__(self) -> StageClock:
+        for label, targets in STAGES:
+            for where, name in targets:
+                owner = _resolve(where)
+                self._undo.append((owner, name, owner.__dict__[name]))
+                setattr(owner, name, self._wrap(label, owner.__dict__[name]))
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for owner, name, original in reversed(self._undo):
+            setattr(owner, name, original)
+
+    def _wrap(self, label: str, fn):  # noqa: ANN001, ANN202
+        def timed(*a, **k):  # noqa: ANN002, ANN003, ANN202
+            self._stack.append([label, _cpu(), 0.0])
+            try:
+                return fn(*a, **k)
+            finally:
+                lab, start, nested = self._stack.pop()
+                spent = _cpu() - start
+                self.totals[lab] = self.totals.get(lab, 0.0) + spent - nested
+                if self._stack:
+                    self._stack[-1][2] += spent
+        return timed
+
+
+def _resolve(where: str) -> object:
+    """A module, or a class given as module.Class."""
+    try:
+        return importlib.import_module(where)
+    except ImportError:
+        mod, cls = where.rsplit(".", 1)
+        return getattr(importlib.import_module(mod), cls)
+
+
+def _cpu() -> float:
+    return time.process_time()  # user + sys of every thread, at the clock's resolution
+
+
+def profile_stages(clip: Path, out: Path, frames: int) -> dict[str, float]:
+    """Decode, correct and encode ``clip`` stage after stage; CPU ms per frame by stage."""
+    import cv2
+
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        t = _cpu()
+        items = []
+        with VideoReader(clip) as reader:
+            for kind, item, pts in reader.packets():
+                if kind == "video" and len(items) < frames:
+                    items.append((item, pts))
+        decode = _cpu() - t
+        timing = SensorTiming(0.9)
+        corr = Corrector(timing, CorrectionConfig())
+        done = []
+        with StageClock() as clock:
+            t = _cpu()
+            for i, (planes, _) in enumerate(items):
+                done += corr.push(planes, float(i))
+            done += corr.flush()
+            correct = _cpu() - t
+        t = _cpu()
+        with VideoReader(clip) as reader:
+            writer = VideoWriter.like(out, reader, EncodeOptions())
+            for (planes, _), (_, pts) in zip(done, items, strict=True):
+                writer.write(planes, pts)
+            writer.close()
+        encode = _cpu() - t
+    finally:
+        cv2.setNumThreads(before)
+    n = len(items)
+    rows = {"decode (PyAV, to planes)": decode}
+    rows.update(clock.totals)
+    rows["correction: not in a stage above"] = correct - sum(clock.totals.values())
+    rows["encode (libx264 CRF 18 medium, its threads)"] = encode
+    return {k: 1000 * v / n for k, v in rows.items()}
+
+
+def profile(args: argparse.Namespace) -> None:
+    unjello = [sys.executable, "-m", "unjello"]
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        for label, size, frames in (("1080p", (1920, 1080), args.frames),
+                                    ("4K", (3840, 2160), args.k4_frames)):
+            clip = d / f"clip_{label}.mp4"
+            build_clip(clip, frames, size)
+            stages = profile_stages(clip, d / "staged.mp4", frames)
+            t = time.perf_counter()
+            transcode(clip, d / "t0.mp4")
+            t0 = time.perf_counter() - t
+            t1, rss = timed([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"), "-q",
+                             "-y"])
+            print(f"\n{label} ({size[0]}x{size[1]}), {frames} frames, CPU ms per frame "
+                  "(user + sys), one stage after another, single-threaded:")
+            for k, v in stages.items():
+                print(f"  {k:46s} {v:8.1f}")
+            work = sum(v for k, v in stages.items() if not k.startswith(("decode", "encode")))
+            print(f"  {'correction in all':46s} {work:8.1f}")
+            print(f"wall in this run: plain transcode {t0:.1f} s, unjello correct {t1:.1f} s "
+                  f"(peak RSS {rss:.0f} MB): {t1 / t0:.2f}x", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=300)
@@ -127,7 +275,13 @@ def main() -> None:
                     help="rounds of T0, T1 and T1 fast (the median round is reported)")
     ap.add_argument("--paper-frames", type=int, default=10,
                     help="frames timed with --method paper (it is slow at 1080p)")
+    ap.add_argument("--profile", action="store_true",
+                    help="CPU time per stage at 1080p and 4K instead (--frames, --k4-frames)")
+    ap.add_argument("--k4-frames", type=int, default=20)
     args = ap.parse_args()
+    if args.profile:
+        profile(args)
+        return
     unjello = [sys.executable, "-m", "unjello"]
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)

@@ -88,6 +88,8 @@ class CorrectionConfig:
         Stabilisation in the same warp (:mod:`unjello.stabilize`; off by default).
     encode : EncodeOptions
         Encoder of an output video.
+    threads : int
+        Threads for the frames' flows (0: one per core; :mod:`unjello.parallel`).
 
     Examples
     --------
@@ -112,6 +114,7 @@ class CorrectionConfig:
     gyro: GyroConfig = field(default_factory=GyroConfig)
     stabilize: StabilizeConfig = field(default_factory=StabilizeConfig)
     encode: EncodeOptions = field(default_factory=EncodeOptions)
+    threads: int = 0
     #: Where the timing settings came from (``{"readout": "preset my.json"}``).
     origins: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
 
@@ -134,6 +137,9 @@ class CorrectionConfig:
             raise SettingsError(f"warp must be one of {', '.join(WARPS)}, not {self.warp!r}")
         if self.fill not in FILLS:
             raise SettingsError(f"fill must be one of {', '.join(FILLS)}, not {self.fill!r}")
+        if not isinstance(self.threads, int) or self.threads < 0:
+            raise SettingsError(f"threads must be 0 (one per core) or more, not "
+                                f"{self.threads!r}")
         if self.stabilize.enabled and self.warp == "splat":
             raise SettingsError("stabilize needs warp=remap: the paper's forward splatting "
                                 "cannot take the stabilisation in the same warp")
@@ -419,6 +425,8 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
     Option("crop", "stabilize.crop", "Stabilisation: 'auto' (the least zoom that keeps the "
            "borders filled, changing gradually), 'none', or a fraction cut from each "
            "side pair, e.g. 0.1.", to_field=crop_request),
+    Option("threads", "threads", "Threads measuring the frames' motion ahead (0: one per "
+           "core).", kind="int"),
     Option("codec", "encode.codec", "Encoder of the output video."),
     Option("crf", "encode.crf", "Encoder quality (0-51, lower is better).", kind="int"),
     Option("x264_preset", "encode.preset", "Encoder speed/size preset (ultrafast ... "

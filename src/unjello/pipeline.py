@@ -14,6 +14,7 @@ import dataclasses
 import os
 from collections import deque
 from collections.abc import Callable, Iterable, MutableMapping, Sequence
+from concurrent.futures import Executor
 from pathlib import Path
 
 import cv2
@@ -31,6 +32,7 @@ from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
 from .motion.gyro import GyroLog
 from .motion.paper import PaperMethod
+from .parallel import cores, frame_threads
 from .readout import estimate_readout_file
 from .stabilize import Stabilizer, track, tracking_copy
 from .timing import SensorTiming, to_top_bottom
@@ -93,6 +95,11 @@ class Corrector:
         With the gyro method, what a gyro that does not fit the picture leads to
         (:class:`~unjello.motion.fallback.GyroOrDense`): False, an error; True, the
         dense method; a string, the dense method even if it fits (the reason).
+    executor : concurrent.futures.Executor, optional
+        Threads that measure the next frames' flows meanwhile
+        (:func:`unjello.parallel.frame_threads`); the result is the same.
+    workers : int
+        The executor's threads (that many frame pairs are measured ahead).
 
     Attributes
     ----------
@@ -104,7 +111,8 @@ class Corrector:
                  max_value: float | None = None, motion: Trajectory | None = None,
                  fps: float = 30.0, gyro_log: GyroLog | None = None,
                  flows: MutableMapping[tuple, tuple] | None = None,
-                 only: set[int] | None = None, gyro_fallback: bool | str = False) -> None:
+                 only: set[int] | None = None, gyro_fallback: bool | str = False,
+                 executor: Executor | None = None, workers: int = 2) -> None:
         self.timing = timing
         self.config = config
         self.max_value = max_value
@@ -121,7 +129,7 @@ class Corrector:
             self._method = GyroOrDense(timing, gyro_log, config.gyro, config.dense, fps,
                                        flows, gyro_fallback)
         else:
-            self._method = DenseMethod(timing, config.dense, flows)
+            self._method = DenseMethod(timing, config.dense, flows, executor, workers)
         lens = None
         if config.undistort:
             if config.gyro.focal is None or config.gyro.distortion is None:
@@ -394,13 +402,16 @@ def correct_video(
                 log(message)
         if on_timing:
             on_timing(resolved)
-        corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
-                              motion=given, fps=resolved.fps, gyro_log=gyro_log,
-                              gyro_fallback=distrust or own is not None)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),
                           method=given.method if given else config.method)
-        _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
-                resolved, progress)
+        workers = config.threads or cores()
+        with frame_threads(workers) as pool:
+            corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
+                                  motion=given, fps=resolved.fps, gyro_log=gyro_log,
+                                  gyro_fallback=distrust or own is not None, executor=pool,
+                                  workers=workers)
+            _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
+                    resolved, progress)
     if report and corrector.gyro is not None:
         if corrector.gyro.fallback:
             report.update(used=False, why=corrector.gyro.fallback)

@@ -77,3 +77,33 @@ def test_content_entering_the_frame_is_told_apart_from_failed_flow(scene):
         assert fm.entering < 2.0 * speed / w
     # The middle frames see both neighbours: what one misses, the other saw.
     assert all(fm.entering < 0.01 for fm in out[1:-1])
+
+
+def test_flows_measured_ahead_on_threads_give_the_same_motion(scene):
+    """With an executor the next pairs' flows are measured while earlier frames are
+    solved: every frame's motion is the same, bit for bit, in the same order, with the
+    per-pixel field and in the rows-only mode."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    sim = list(simulate(scene, Motion("shake", amplitude=3.0), SensorTiming(0.9), 9,
+                        size=(192, 128)))
+    grey = [s.rolling.mean(axis=2).astype(np.uint8) for s in sim]
+    for config in (DenseConfig(), DenseConfig(per_pixel=False)):
+        runs = []
+        for pool in (None, ThreadPoolExecutor(3)):
+            method = DenseMethod(SensorTiming(0.9), config, executor=pool, ahead=3)
+            out = []
+            for k, g in enumerate(grey):
+                out += method.push(g, float(k))
+            out += method.flush()
+            runs.append(out)
+        plain, ahead = runs
+        assert [fm.index for fm in ahead] == list(range(len(grey)))
+        for a, b in zip(plain, ahead, strict=True):
+            assert np.array_equal(a.displacement, b.displacement)
+            assert a.note == b.note
+            if config.per_pixel:
+                assert np.array_equal(a.field, b.field)

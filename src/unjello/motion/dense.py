@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import deque
+from concurrent.futures import Executor, Future
 from collections.abc import Callable, MutableMapping
 from dataclasses import dataclass
 
@@ -332,6 +333,13 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     return np.where(better[..., None], glob, flow)
 
 
+def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
+              finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The flow from ``cur`` to ``prev`` and where it lands inside (the rows-only mode)."""
+    flow = optical_flow(cur, prev, preset, max_width, finest_scale)
+    return flow, landing(flow)[2]
+
+
 @dataclass
 class _Frame:
     index: int
@@ -359,10 +367,17 @@ class DenseMethod:
         Settings.
     flows : mutable mapping, optional
         Flows between frame pairs, kept across methods correcting the same frames.
+    executor : concurrent.futures.Executor, optional
+        Measures the flows of the next frame pairs while the motion of earlier frames is
+        solved (threads: OpenCV releases the GIL). The motion is the same as without.
+    ahead : int
+        Frame pairs measured ahead on the executor (one per worker keeps them all busy);
+        each frame's motion comes out that many frames later.
     """
 
     def __init__(self, timing: SensorTiming, config: DenseConfig = DenseConfig(),
-                 flows: MutableMapping[tuple, tuple] | None = None) -> None:
+                 flows: MutableMapping[tuple, tuple] | None = None,
+                 executor: Executor | None = None, ahead: int = 2) -> None:
         self.timing = timing
         self.config = config
         self._flows = flows  # flows do not depend on the readout: kept by the caller
@@ -374,7 +389,11 @@ class DenseMethod:
         self._halves: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
         self._note = ""  # added to every frame's note once vibration is detected
         self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
-        self._count = 0
+        self._count = 0  # frames pushed
+        self._measured = 0  # frames whose flow to the previous frame is taken
+        self._pending: deque[tuple[_Frame, _Frame, Future | tuple]] = deque()
+        self._executor = executor
+        self._ahead = 0 if executor is None else max(1, ahead)
         self._next_out = 0
         self._full: tuple[int, int] = (0, 0)
         # The last frame's spinning objects: (centre at its reference time, omega, that time)
@@ -393,17 +412,53 @@ class DenseMethod:
         cur = _Frame(self._count, float(start), img.astype(np.float32))
         self._count += 1
         if self._frames:
-            prev = self._frames[-1]
+            self._pending.append((self._frames[-1], cur, self._measure(self._frames[-1], cur)))
+        else:
+            self._measured = max(self._measured, cur.index + 1)  # nothing to measure
+        self._frames.append(cur)
+        self._take_flows(keep=self._ahead)
+        return self._ready(final=False)
+
+    def flush(self) -> list[FrameMotion]:
+        """Return the motion of the frames still pending at the end of the clip."""
+        self._take_flows(keep=0)
+        return self._ready(final=True)
+
+    def _measure(self, prev: _Frame, cur: _Frame) -> Future | tuple:
+        """Start (on the executor, if any) or look up the flows between two frames."""
+        if not self.config.per_pixel:  # rows only: one flow, its row summary rejects outliers
+            args = (cur.image, prev.image, self.config.flow_preset, 0, self.config.finest_scale)
+            job: Callable[..., tuple] = _row_flow
+        else:
+            key = (prev.start, cur.start, cur.image.shape, self.timing.direction,
+                   self.config.flow)
+            if self._flows is not None and key in self._flows:
+                return self._flows[key]
+            args, job = (prev.image, cur.image, self.config.flow), flow_pair
+        return self._executor.submit(job, *args) if self._executor is not None else job(*args)
+
+    def _take_flows(self, keep: int) -> None:
+        """Take the measured flows in order: waiting until ``keep`` pairs are left, then
+        those done.
+
+        Each pair's row equations are formed as its flows arrive, in the order of the
+        frames, so the motion is the same whether the flows were computed ahead on an
+        executor or here, one after another.
+        """
+        while self._pending:
+            prev, cur, job = self._pending[0]
+            if isinstance(job, Future):
+                if len(self._pending) <= keep and not job.done():
+                    return
+                job = job.result()
+                if self.config.per_pixel and self._flows is not None:
+                    self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
+                                 self.config.flow)] = job
+            self._pending.popleft()
             if self.config.per_pixel:
-                key = (prev.start, cur.start, img.shape, self.timing.direction, self.config.flow)
-                flows = self._flows if self._flows is not None else {}
-                if key not in flows:
-                    flows[key] = flow_pair(prev.image, cur.image, self.config.flow)
-                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = flows[key]
-            else:  # rows only: one flow, its robust row summary rejects the outliers
-                cur.bwd = optical_flow(cur.image, prev.image, self.config.flow_preset, 0,
-                                       self.config.finest_scale)
-                cur.bwd_ok = landing(cur.bwd)[2]  # lands inside the frame
+                cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
+            else:
+                cur.bwd, cur.bwd_ok = job
             self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self._decided and min(prev.contrast, cur.contrast) >= PROBE_CONTRAST:
                 # Rows of each half, for the vibration test (frames too flat to give
@@ -411,12 +466,7 @@ class DenseMethod:
                 self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
-        self._frames.append(cur)
-        return self._ready(final=False)
-
-    def flush(self) -> list[FrameMotion]:
-        """Return the motion of the frames still pending at the end of the clip."""
-        return self._ready(final=True)
+            self._measured = cur.index + 1
 
     def _row_equations(self, prev: _Frame, cur: _Frame) -> tuple:
         """Row flows of ``cur`` -> equations ``c(t_a) - c(t_b) + u(y)(t_a - t_b) = delta``."""
@@ -439,7 +489,7 @@ class DenseMethod:
         lo = max(1, n - self.config.history + 1)
         hi = lo + span - 1
         if final:
-            hi = min(hi, self._count - 1)
+            hi = min(hi, self._measured - 1)
             lo = max(1, hi - span + 1)
         return lo, hi
 
@@ -460,11 +510,11 @@ class DenseMethod:
         out: list[FrameMotion] = []
         if not self._decided:
             probed = len(self._halves) >= self.config.probe
-            if not final and not probed and self._count - 1 < PROBE_WAIT * self.config.probe:
+            if not final and not probed and self._measured - 1 < PROBE_WAIT * self.config.probe:
                 return out
             self._decide()
-        while self._next_out < self._count and (
-                final or self._count - 1 >= self._pairs(self._next_out, False)[1]):
+        while self._next_out < self._measured and (
+                final or self._measured - 1 >= self._pairs(self._next_out, False)[1]):
             n = self._next_out
             fr = next(f for f in self._frames if f.index == n)
             out.append(self._emit(fr, self._pairs(n, final)))
