@@ -13,7 +13,6 @@ import os
 from pathlib import Path
 
 import numpy as np
-from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 from .errors import InputError
 from .io.source import read_frames
@@ -49,12 +48,16 @@ def psnr(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0
     a, b = crop_margin(_rgb(image), margin), crop_margin(_rgb(truth), margin)
     if np.array_equal(a, b):
         return 100.0  # identical images: reported as 100 dB instead of infinity
+    from skimage.metrics import peak_signal_noise_ratio  # on use: it imports scipy.stats
+
     return float(peak_signal_noise_ratio(b, a, data_range=_range(truth)))
 
 
 def ssim(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0) -> float:
     """Structural similarity (scikit-image defaults; colour over ``channel_axis=-1``)."""
     a, b = crop_margin(_rgb(image), margin), crop_margin(_rgb(truth), margin)
+    from skimage.metrics import structural_similarity  # on use: it imports scipy.stats
+
     return float(structural_similarity(
         b, a, data_range=_range(truth), channel_axis=-1 if a.ndim == 3 else None))
 

@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputError, SettingsError
@@ -105,6 +104,8 @@ class GyroLog:
         object.__setattr__(self, "time", t)
         object.__setattr__(self, "rate", r)
         # Theta(t): the integral of the rate (trapezoid rule), linear between samples.
+        from scipy.integrate import cumulative_trapezoid  # on use: slow to import
+
         object.__setattr__(self, "angle", cumulative_trapezoid(r, t, axis=0, initial=0.0))
 
     def theta(self, t: np.ndarray) -> np.ndarray:
