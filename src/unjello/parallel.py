@@ -31,7 +31,7 @@ def cores() -> int:
 
 @contextmanager
 def frame_threads(workers: int = 0) -> Iterator[ThreadPoolExecutor | None]:
-    """A pool of ``workers`` threads for the frames' flows, OpenCV single-threaded meanwhile.
+    """Open a pool of ``workers`` threads for the flows; OpenCV single-threaded meanwhile.
 
     Parameters
     ----------

@@ -16,6 +16,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, MutableMapping, Sequence
 from concurrent.futures import Executor
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -39,7 +40,7 @@ from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
 from .warp import PictureWarper
 
-__all__ = ["Corrector", "correct_frames", "correct_video", "Progress"]
+__all__ = ["Corrector", "correct_frames", "correct_video", "resolve_clip", "Progress"]
 
 Progress = Callable[[int, int], None]
 
@@ -372,31 +373,8 @@ def correct_video(
         check_new(extra, overwrite)
     given = Trajectory.load(motion_in) if motion_in is not None else None
     with FrameSource(src_p) as source:
-        gyro = config.method == "gyro" and given is None
-        identified = (camera_of(src_p) if given is None and not config.camera
-                      and not config.lens_profile
-                      and (config.readout in (None, "auto") or gyro or config.undistort)
-                      else None)
-        resolved = resolve_timing(
-            config, path=src_p, video_fps=source.info.fps,
-            motion_timing=given.timing if given is not None else None,
-            size=(source.info.width, source.info.height), identified=identified,
-            estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
-                                                                  fps=fps))
-        gyro_log, own, report, distrust = None, None, {}, ""
-        if gyro or config.undistort:
-            config, lens = _with_lens(config, config.camera or identified,
-                                      (source.info.width, source.info.height), resolved.fps)
-            resolved = dataclasses.replace(resolved, messages=(*resolved.messages, *lens))
-        if gyro:
-            gyro_log, said, own = gyro_source(src_p, config.gyro)
-            resolved = dataclasses.replace(
-                resolved, sources={**resolved.sources, "gyro": said},
-                messages=(*resolved.messages, f"gyro: {said}"))
-            report = {"source": said, "used": True, "explains": None, "why": ""}
-            if own is not None and own.stabilised:
-                distrust = (f"the camera stabilised the picture itself (stabilisation "
-                            f"{own.stabilised!r}), so it no longer moves as the gyro says")
+        config, resolved, gyro_log, own, report, distrust = resolve_clip(
+            config, src_p, source, given)
         for message in resolved.messages:
             if log:
                 log(message)
@@ -425,6 +403,51 @@ def correct_video(
     if log and len(traj) == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
     return traj
+
+
+
+def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
+                 given: Trajectory | None = None
+                 ) -> tuple[CorrectionConfig, ResolvedTiming, GyroLog | None, Any, dict, str]:
+    """Decide a clip's timing, lens and gyro once (:func:`correct_video`, segments).
+
+    Returns
+    -------
+    config : CorrectionConfig
+        With the lens found for it.
+    resolved : ResolvedTiming
+    gyro_log, own : the gyro method's log, and the camera's own record (or None)
+    report : dict
+        What will be said of the gyro.
+    distrust : str
+        Why the camera's own gyro cannot describe the picture ('' if it can).
+    """
+    gyro = config.method == "gyro" and given is None
+    identified = (camera_of(src_p) if given is None and not config.camera
+                  and not config.lens_profile
+                  and (config.readout in (None, "auto") or gyro or config.undistort)
+                  else None)
+    resolved = resolve_timing(
+        config, path=src_p, video_fps=source.info.fps,
+        motion_timing=given.timing if given is not None else None,
+        size=(source.info.width, source.info.height), identified=identified,
+        estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
+                                                              fps=fps))
+    gyro_log, own, report, distrust = None, None, {}, ""
+    if gyro or config.undistort:
+        config, lens = _with_lens(config, config.camera or identified,
+                                  (source.info.width, source.info.height), resolved.fps)
+        resolved = dataclasses.replace(resolved, messages=(*resolved.messages, *lens))
+    if gyro:
+        gyro_log, said, own = gyro_source(src_p, config.gyro)
+        resolved = dataclasses.replace(
+            resolved, sources={**resolved.sources, "gyro": said},
+            messages=(*resolved.messages, f"gyro: {said}"))
+        report = {"source": said, "used": True, "explains": None, "why": ""}
+        if own is not None and own.stabilised:
+            distrust = (f"the camera stabilised the picture itself (stabilisation "
+                        f"{own.stabilised!r}), so it no longer moves as the gyro says")
+    return config, resolved, gyro_log, own, report, distrust
 
 
 def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, int],

@@ -211,8 +211,13 @@ class VideoReader:
         """Close the file."""
         self._c.close()
 
-    def packets(self) -> Iterator[tuple[str, object, int | None]]:
+    def packets(self, audio: bool = True) -> Iterator[tuple[str, object, int | None]]:
         """Yield decoded video frames (as planes) and raw audio packets in file order.
+
+        Parameters
+        ----------
+        audio : bool
+            Also the audio packets.
 
         Raises
         ------
@@ -220,7 +225,7 @@ class VideoReader:
             If the stream is corrupt beyond what the decoder can skip.
         """
         try:
-            for packet in self._c.demux(self._vs, *self.audio):
+            for packet in self._c.demux(self._vs, *(self.audio if audio else ())):
                 if packet.stream.type == "audio":
                     if packet.dts is not None:
                         yield "audio", packet, None
@@ -230,6 +235,30 @@ class VideoReader:
                     yield "video", self._planes(frame), frame.pts
         except av.FFmpegError as exc:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
+
+    def seek(self, pts: int) -> None:
+        """Go to the keyframe at or before ``pts`` (the video stream's time base)."""
+        self._c.seek(pts, stream=self._vs, backward=True, any_frame=False)
+
+    def packet_times(self) -> tuple[list[int], set[int]]:
+        """Return the pts of every video packet, and those of the keyframes (none decoded).
+
+        Raises
+        ------
+        InputError
+            Packets without timestamps (a raw stream).
+        """
+        pts: list[int] = []
+        keys: set[int] = set()
+        for packet in self._c.demux(self._vs):
+            if packet.pts is None:
+                if packet.size:
+                    raise InputError(f"{self.info.path}: its frames carry no timestamps")
+                continue
+            pts.append(packet.pts)
+            if packet.is_keyframe:
+                keys.add(packet.pts)
+        return pts, keys
 
     def rgb_frames(self) -> Iterator[np.ndarray]:
         """Yield every video frame as an RGB uint8 array (coded orientation)."""

@@ -38,8 +38,8 @@ from __future__ import annotations
 
 import dataclasses
 from collections import deque
-from concurrent.futures import Executor, Future
 from collections.abc import Callable, MutableMapping
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass
 
 import cv2
@@ -335,7 +335,7 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """The flow from ``cur`` to ``prev`` and where it lands inside (the rows-only mode)."""
+    """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
     flow = optical_flow(cur, prev, preset, max_width, finest_scale)
     return flow, landing(flow)[2]
 
@@ -419,6 +419,11 @@ class DenseMethod:
         self._take_flows(keep=self._ahead)
         return self._ready(final=False)
 
+    @property
+    def vibrating(self) -> bool | None:
+        """Whether the vibration settings are in use; None while ``auto`` has not decided."""
+        return self.config.window == VIBRATION["window"] if self._decided else None
+
     def flush(self) -> list[FrameMotion]:
         """Return the motion of the frames still pending at the end of the clip."""
         self._take_flows(keep=0)
@@ -438,8 +443,7 @@ class DenseMethod:
         return self._executor.submit(job, *args) if self._executor is not None else job(*args)
 
     def _take_flows(self, keep: int) -> None:
-        """Take the measured flows in order: waiting until ``keep`` pairs are left, then
-        those done.
+        """Take the measured flows in order: until ``keep`` are left, then those done.
 
         Each pair's row equations are formed as its flows arrive, in the order of the
         frames, so the motion is the same whether the flows were computed ahead on an
