@@ -48,13 +48,18 @@ from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
 
-def build_clip(path: Path, frames: int, size: tuple[int, int], fps: int = 30) -> None:
-    """Write a simulated rolling-shutter clip with a sine audio track."""
+def build_clip(path: Path, frames: int, size: tuple[int, int], fps: int = 30,
+               keyint: int = 60) -> None:
+    """Write a simulated rolling-shutter clip with a sine audio track.
+
+    A keyframe every ``keyint`` frames (two seconds: as cameras write; segments start
+    at keyframes).
+    """
     with av.open(str(path), "w") as out:
         vs = out.add_stream("libx264", rate=fps)
         vs.width, vs.height = size
         vs.pix_fmt = "yuv420p"
-        vs.options = {"crf": "18", "preset": "veryfast"}
+        vs.options = {"crf": "18", "preset": "veryfast", "g": str(keyint)}
         ast = out.add_stream("aac", rate=48000)
         sim = simulate(data.astronaut(), Motion("shake", fps=fps, amplitude=2.0),
                        SensorTiming(0.9), frames, size=size)
@@ -191,7 +196,7 @@ class StageClock:
 
 
 def _resolve(where: str) -> object:
-    """A module, or a class given as module.Class."""
+    """Return a module, or a class given as module.Class."""
     try:
         return importlib.import_module(where)
     except ImportError:

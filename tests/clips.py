@@ -21,7 +21,7 @@ def motion_file_error(path, sim):
 
 
 def make_clip(path, scene, *, n=8, size=(192, 144), fps=30, audio=True, rotation=0,
-              pts=None, speed=6.0, readout=1.0, pix_fmt="yuv420p"):
+              pts=None, speed=6.0, readout=1.0, pix_fmt="yuv420p", keyint=None):
     """Write a rolling-shutter pan; return the list of video pts written."""
     frames = [s.rolling for s in simulate(scene, Motion("pan", speed=speed),
                                           SensorTiming(readout), n, size=size)]
@@ -33,7 +33,7 @@ def make_clip(path, scene, *, n=8, size=(192, 144), fps=30, audio=True, rotation
     vs.pix_fmt = pix_fmt
     vs.time_base = tb
     vs.codec_context.time_base = tb
-    vs.options = {"crf": "12", "preset": "ultrafast"}
+    vs.options = {"crf": "12", "preset": "ultrafast", **({"g": str(keyint)} if keyint else {})}
     if rotation:
         vs.set_display_rotation(rotation)
     ast = out.add_stream("aac", rate=48000) if audio else None

@@ -17,6 +17,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import glob
 import json
+import multiprocessing
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -134,7 +135,10 @@ def executor(kind: str = "local", address: str | None = None,
     """
     n = workers or os.cpu_count() or 1
     if kind == "local":
-        with cf.ProcessPoolExecutor(max_workers=n) as pool:
+        # Started fresh, not forked: a fork of a process whose OpenCV threads have run
+        # inherits their locks held, and hangs in its first OpenCV call.
+        with cf.ProcessPoolExecutor(max_workers=n,
+                                    mp_context=multiprocessing.get_context("spawn")) as pool:
             yield pool
     elif kind == "dask":
         try:

@@ -22,7 +22,7 @@ from click.core import ParameterSource
 
 from . import __version__
 from .config import OPTIONS, PRESETS, CorrectionConfig
-from .errors import UnjelloError
+from .errors import SettingsError, UnjelloError
 from .io.video import EncodeOptions
 from .motion.dense import FOLD_WARNING
 from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
@@ -157,11 +157,22 @@ def cli() -> None:
               help="Folder for per-frame 16-bit STMap PNGs (Nuke, Resolve/Fusion, AE).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON summary line on stdout.")
+@click.option("--segments", help="Correct a long video in this many segments (cut at "
+              "keyframes; 'auto': one per worker, or per 300 frames) on --executor's workers, "
+              "joined without re-encoding; a rerun redoes only unfinished segments.")
+@click.option("--executor", "executor_kind", type=click.Choice(["local", "dask", "ray"]),
+              help="Where the segments run: local processes, a Dask or a Ray cluster "
+              "(local unless --address); implies --segments auto.")
+@click.option("--address", help="The cluster's address (Dask tcp://host:8786, Ray "
+              "ray://host:10001 or auto).")
+@click.option("--workers", type=click.IntRange(1, 4096),
+              help="Worker processes of a local pool or cluster (default: the cores).")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def correct(input: Path, output: Path, preset: str | None, motion_out: Path | None,
             motion_in: Path | None, preview: Path | None, stmap: Path | None, as_json: bool,
-            overwrite: bool, quiet: bool, **options: Any) -> None:
+            segments: str | None, executor_kind: str | None, address: str | None,
+            workers: int | None, overwrite: bool, quiet: bool, **options: Any) -> None:
     """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
     import time
 
@@ -169,6 +180,31 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
 
     config = _config(preset, options)
     messages: list[str] = []
+    runner: Callable[..., Any] = correct_video
+    if segments is not None or executor_kind is not None or address is not None:
+        if segments is not None and segments != "auto" and not (
+                segments.isdigit() and int(segments) >= 1):
+            raise click.BadParameter(f"{segments!r}: a number of segments, or auto",
+                                     param_hint="--segments")
+        taken = [flag for flag, value in (("--motion-out", motion_out),
+                                          ("--motion-in", motion_in),
+                                          ("--preview", preview), ("--stmap", stmap))
+                 if value is not None]
+        if taken:
+            raise SettingsError(f"{', '.join(taken)} cannot be written by a segmented run "
+                                "(leave out --segments and --executor)")
+
+        def runner(src: Path, dst: Path, cfg: CorrectionConfig, **kw: Any) -> Any:
+            from .segments import correct_segmented
+
+            traj, report = correct_segmented(
+                src, dst, cfg, segments=segments or "auto", kind=executor_kind or "local",
+                address=address, workers=workers, overwrite=kw["overwrite"], log=kw["log"],
+                on_timing=kw["on_timing"], progress=kw["progress"])
+            kept = sum(s["status"] == "kept" for s in report["segments"])
+            kw["log"](f"{len(report['segments'])} segment(s) on {executor_kind or 'local'}"
+                      + (f", {kept} kept from an earlier run" if kept else ""))
+            return traj
 
     def log(m: str) -> None:
         m = _flagify(m)
@@ -179,7 +215,7 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
     decided: dict[str, Any] = {"gyro": None}
     t0 = time.perf_counter()
     with _progress("correcting", quiet or as_json) as progress:
-        traj = correct_video(input, output, config, overwrite=overwrite,
+        traj = runner(input, output, config, overwrite=overwrite,
                              motion_out=motion_out, motion_in=motion_in, preview=preview,
                              stmap=stmap, progress=progress, log=log,
                              on_timing=lambda r: decided.update(fps=r.fps,
