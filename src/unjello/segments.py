@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .batch import executor
+from .clip import resolve_clip
 from .config import CorrectionConfig, ResolvedTiming
 from .errors import InputError, SettingsError, UnjelloError
 from .io.remux import FrameIndex, frame_index, join_segments, read_stretch
@@ -41,7 +42,7 @@ from .io.source import FrameSource
 from .io.video import VideoReader, VideoWriter
 from .motion.dense import DenseMethod
 from .parallel import frame_threads
-from .pipeline import Corrector, _light, resolve_clip
+from .pipeline import Corrector, _light
 from .stabilize import Stabilizer
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
