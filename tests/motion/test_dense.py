@@ -3,7 +3,8 @@
 import cv2
 import numpy as np
 
-from unjello.motion.dense import DenseConfig, DenseMethod, _advected_velocity, snap_to_global
+from unjello.motion.dense import DenseConfig, DenseMethod
+from unjello.motion.field import advected_velocity, snap_to_global
 
 
 def test_advected_velocity_follows_a_zoom_ahead():
@@ -19,7 +20,7 @@ def test_advected_velocity_follows_a_zoom_ahead():
     truth = rel * np.float32(np.exp(k / 2) - 1)
     linear = 0.5 * vel
     ok = np.ones((h, w), bool)
-    advected = 0.5 * _advected_velocity(vel, ok, flow, linear)
+    advected = 0.5 * advected_velocity(vel, ok, flow, linear)
     inner = (slice(10, -10), slice(10, -10))
     err_lin = np.abs(linear - truth)[inner].mean()
     assert np.abs(advected - truth)[inner].mean() < err_lin / 5

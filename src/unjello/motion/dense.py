@@ -46,23 +46,23 @@ import cv2
 import numpy as np
 
 from ..errors import SettingsError
-from ..timing import SensorTiming, pixel_grid
+from ..timing import SensorTiming
 from ..trajectory import FrameMotion
-from .camera import BLAS, SINE_RIDGE, CameraSolution, solve_camera_trajectory
+from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
+from .field import advected_velocity, fill_unreliable, smooth_field, snap_to_global
 from .flow import (
     FlowSettings,
     flow_pair,
     half_row_flows,
     landing,
     optical_flow,
-    patch_cost,
     row_flows,
 )
 from .safety import failed_blobs, fold_blobs, fold_share, keep_whole
 from .spin import keep_spinning
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
-__all__ = ["DenseConfig", "DenseMethod", "snap_to_global", "FOLD_WARNING"]
+__all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
 #: A frame whose map folds or tears in blobs over more than this share of its pixels is
 #: reported: the real spinners clip's torn frames show 0.2-0.6 %, the research pairs at
@@ -122,8 +122,8 @@ class DenseConfig:
         (:func:`~unjello.motion.flow.refine_motion_edges`; per-pixel mode only).
     snap_window : int
         Pixels whose neighbourhood the frame's global (projective) motion explains as well
-        as their own flow take the global motion (:func:`snap_to_global`; this patch side
-        in px, 0: off).
+        as their own flow take the global motion
+        (:func:`~unjello.motion.field.snap_to_global`; this patch side in px, 0: off).
     per_pixel : bool
         Model each pixel's residual motion (parallax, moving objects) on top of the
         camera trajectory. False: the camera trajectory alone, one displacement per
@@ -166,171 +166,6 @@ class DenseConfig:
     def vibrating(self) -> DenseConfig:
         """Return these settings with :data:`VIBRATION` applied (``vibration='on'``)."""
         return dataclasses.replace(self, **VIBRATION)
-
-
-def _fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
-    """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones."""
-    if ok.all() or not ok.any() or sigma <= 0:
-        return resid if ok.any() else np.zeros_like(resid)
-    # The average is smooth: blur at a quarter of the resolution, then interpolate back.
-    h, w_ = ok.shape
-    small = (max(1, w_ // 4), max(1, h // 4))
-    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
-    numf = cv2.resize(resid * ok[..., None], small, interpolation=cv2.INTER_AREA)
-    w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
-    num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
-    avg = num / np.maximum(w, 1e-3)[..., None]
-    avg[w <= 1e-3] = 0.0
-    np.copyto(avg, resid, where=ok[..., None])
-    return avg
-
-
-def _smooth_field(field: np.ndarray) -> np.ndarray:
-    """5x5 median of each component (isolated wrong flow vectors)."""
-    for k in range(2):
-        field[..., k] = cv2.medianBlur(np.ascontiguousarray(field[..., k]), 5)
-    return field
-
-
-def _projective_flow(coef: np.ndarray, x: np.ndarray, y: np.ndarray, size: tuple[int, int]
-                     ) -> np.ndarray:
-    """Evaluate the eight-parameter projective flow (planar scene, camera rotation) at x, y.
-
-    ``u = a1 + a2 x + a3 y + a7 x^2 + a8 x y``, ``v = a4 + a5 x + a6 y + a7 x y + a8 y^2``
-    with ``x, y`` centred on the image of ``size`` (h, w) and scaled by its larger side.
-    It is linear in ``coef``: evaluated with unit vectors it gives the model's columns.
-
-    Returns
-    -------
-    ndarray of shape ``x.shape + (2,)``
-    """
-    h, w = size
-    scale = np.float32(1.0 / max(h, w))
-    x = (x - np.float32(0.5 * w)) * scale
-    y = (y - np.float32(0.5 * h)) * scale
-    a1, a2, a3, a4, a5, a6, a7, a8 = np.asarray(coef, dtype=np.float32)
-    quad = a7 * x + a8 * y
-    return np.stack([a1 + a2 * x + a3 * y + quad * x, a4 + a5 * x + a6 * y + quad * y],
-                    axis=-1)
-
-
-def _fit_projective(values: np.ndarray, ok: np.ndarray, x: np.ndarray, y: np.ndarray,
-                    stride: int = 8) -> np.ndarray | None:
-    """Robust fit of the projective flow (:func:`_projective_flow`) to ``values`` at ``(x, y)``.
-
-    Iteratively reweighted least squares (four rounds, residuals beyond 1.5 times their
-    median down-weighted: independently moving objects and parallax are outliers) over
-    every ``stride``-th reliable sample of the grid.
-
-    Parameters
-    ----------
-    values : ndarray of shape (h, w, 2)
-        Vectors to fit (a flow, a velocity).
-    ok : ndarray of bool, shape (h, w)
-        Samples that may be used.
-    x, y : ndarray of shape (h, w)
-        Where each vector belongs.
-    stride : int
-        Sampling step of the grid.
-
-    Returns
-    -------
-    ndarray of shape (8,) or None
-        The coefficients; None with fewer than 32 usable samples.
-    """
-    h, w = values.shape[:2]
-    sub = (slice(None, None, stride), slice(None, None, stride))
-    use = ok[sub].ravel()
-    n = int(use.sum())
-    if n < 32:
-        return None
-    # The model's columns (see :func:`_projective_flow`) at the samples, in its units.
-    scale = 1.0 / max(h, w)
-    xs = (x[sub].ravel()[use].astype(np.float64) - 0.5 * w) * scale
-    ys = (y[sub].ravel()[use].astype(np.float64) - 0.5 * h) * scale
-    one, zero = np.ones(n), np.zeros(n)
-    a = np.stack([np.stack([one, xs, ys, zero, zero, zero, xs * xs, xs * ys], axis=1),
-                  np.stack([zero, zero, zero, one, xs, ys, xs * ys, ys * ys], axis=1)],
-                 axis=1).reshape(2 * n, 8)  # rows: x then y of each sample
-    target = values[sub].reshape(-1, 2)[use].astype(np.float64).ravel()
-    weight = np.ones(n)
-    with BLAS.limit(limits=1, user_api="blas"):
-        for _ in range(4):
-            aw = (a * np.repeat(weight ** 2, 2)[:, None]).T
-            coef = np.linalg.solve(aw @ a + 1e-12 * np.eye(8), aw @ target)
-            r = (a @ coef - target).reshape(n, 2)
-            r = np.hypot(r[:, 0], r[:, 1])
-            weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
-    return coef
-
-
-def _advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
-                       ahead: np.ndarray, stride: int = 8) -> np.ndarray:
-    """Each pixel's velocity, moved along its path ahead through the smooth flow field.
-
-    ``vel`` is each pixel's mean velocity over its measured path to the neighbour frame
-    (``flow``), so it belongs half-way along that path, at ``s + flow(s) / 2``; the
-    pixel moves on by ``ahead`` to the reference time and meets the velocity half-way
-    there, at ``s + ahead / 2`` (midpoint rule). The flow of a camera rotating or moving
-    over a plane at a steady rate is a fixed field over the image, the projective flow
-    (:func:`_projective_flow`): fitted (robustly, to the reliable pixels) and used for
-    the change of velocity between the two places. What is left (the depth of each
-    point) travels with the point. A constant velocity per pixel misses the acceleration
-    a point sees moving through a zoom or a perspective; the residual of its fit would
-    carry objects' edges through the frame.
-
-    The projective field beat an affine one, a quadratic one and the full per-pixel
-    field on the research pairs (``docs/tuning.md``).
-    """
-    h, w = vel.shape[:2]
-    gx, gy = pixel_grid(h, w)
-    mid_x, mid_y = gx + 0.5 * flow[..., 0], gy + 0.5 * flow[..., 1]
-    coef = _fit_projective(vel, ok, mid_x, mid_y, stride)
-    if coef is None:
-        return vel
-    return (vel + _projective_flow(coef, gx + 0.5 * ahead[..., 0], gy + 0.5 * ahead[..., 1],
-                                   (h, w))
-            - _projective_flow(coef, mid_x, mid_y, (h, w)))
-
-
-def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.ndarray,
-                   window: int = 9) -> np.ndarray:
-    """Give pixels the frame's global motion where it explains them as well as their own flow.
-
-    Dense flow is smoothed across motion boundaries (the background next to a moving
-    object or a nearer layer moves partly with it) and is noisy where the scene has little
-    structure. The frame's global motion -- the projective flow (:func:`_projective_flow`)
-    fitted robustly to the reliable pixels: camera rotation, a plane, the dominant layer --
-    replaces a pixel's own flow where it matches the other frame at least as well over a
-    ``window`` x ``window`` patch (sum of absolute differences). Pixels of independently
-    moving objects and of other layers keep their flow: the global motion does not match
-    them (measurements: ``docs/tuning.md``).
-
-    Parameters
-    ----------
-    cur, other : ndarray of shape (h, w), float32
-        The frame and the neighbour the flow points to.
-    flow : ndarray of shape (h, w, 2), float32
-        Flow from ``cur`` to ``other`` (``cur(s) ~ other(s + flow(s))``).
-    ok : ndarray of bool, shape (h, w)
-        Pixels whose flow is reliable (the fit's samples).
-    window : int
-        Side of the patch compared (px).
-
-    Returns
-    -------
-    ndarray of shape (h, w, 2), float32
-    """
-    h, w = flow.shape[:2]
-    gx, gy = pixel_grid(h, w)
-    coef = _fit_projective(flow, ok, gx, gy)
-    if coef is None:
-        return flow
-    glob = _projective_flow(coef, gx, gy, (h, w))
-
-    better = (patch_cost(cur, other, gx, gy, glob, window)
-              <= patch_cost(cur, other, gx, gy, flow, window))
-    return np.where(better[..., None], glob, flow)
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
@@ -696,8 +531,8 @@ class DenseMethod:
             Quadratic through the residual flows to both neighbours. With one neighbour
             (the ends of a clip, a frame pair) the pixel's mean velocity over its measured
             way, moved along its way to the reference time through the smooth part of the
-            flow field (:func:`_advected_velocity`; with ``advect`` off, the straight
-            line through the one residual). Unreliable pixels take their reliable
+            flow field (:func:`~unjello.motion.field.advected_velocity`; with ``advect``
+            off, the straight line through the one residual). Unreliable pixels take their reliable
             neighbours' (Gaussian average), then a 5x5 median.
         fallback : ndarray of bool, shape (h, w)
             Pixels whose flow was unreliable on both sides.
@@ -727,11 +562,11 @@ class DenseMethod:
         if len(sides) == 1 and self.config.advect:
             # One neighbour: the pixel's velocity, carried along its way to t_ref.
             t_o, r, ok, flow = sides[0]
-            vel = _smooth_field(_fill_unreliable(r / (t_o - t_s)[..., None], ok,
+            vel = smooth_field(fill_unreliable(r / (t_o - t_s)[..., None], ok,
                                                  self.config.fill_sigma))
             dt = (tr - t_s)[..., None]
             ahead = dt * vel - cam_disp[:, None, :]
-            return dt * _advected_velocity(vel, ok, flow, ahead), ~ok, entering
+            return dt * advected_velocity(vel, ok, flow, ahead), ~ok, entering
         field_resid = np.zeros((h, w, 2), np.float32)
         fallback = np.ones((h, w), dtype=bool)
         if len(sides) == 2:
@@ -748,6 +583,6 @@ class DenseMethod:
             lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
             np.copyto(field_resid, lin, where=only[..., None])
             fallback &= ~only
-        field_resid = _smooth_field(_fill_unreliable(field_resid, ~fallback,
+        field_resid = smooth_field(fill_unreliable(field_resid, ~fallback,
                                                      self.config.fill_sigma))
         return field_resid, fallback, entering & fallback
