@@ -25,6 +25,7 @@ import os
 import pickle
 import shutil
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +42,7 @@ from .io.sink import check_paths, remove, replace, temp_path
 from .io.source import FrameSource
 from .io.video import VideoReader, VideoWriter
 from .motion.dense import DenseMethod
-from .parallel import frame_threads
+from .parallel import cores, frame_threads
 from .pipeline import Corrector, _light
 from .stabilize import Stabilizer
 from .timing import SensorTiming, to_top_bottom
@@ -155,29 +156,28 @@ def run_segment(job: _Job) -> list[FrameMotion]:
                              color=info.color)
     tb = float(info.time_base or 0)
     first = job.pts[0]
-    wanted = set(job.pts[seg.start:seg.end])
+    wanted = {p: i for i, p in enumerate(job.pts[seg.start:seg.end], start=seg.start)}
     motions: list[FrameMotion] = []
     try:
-        with frame_threads(job.threads) as pool:
+        threads = job.threads or cores()
+        with frame_threads(threads) as pool:
             corr = Corrector(job.timing, job.config,
                              max_value=1023.0 if info.bit_depth == 10 else 255.0,
-                             fps=job.fps, executor=pool, workers=job.threads or 1)
+                             fps=job.fps, executor=pool, workers=threads,
+                             only=set(range(seg.start - seg.lead, seg.end - seg.lead)))
             frames = read_stretch(job.source, job.pts[seg.lead], job.pts[seg.tail - 1])
-            held: list[int] = []
-            n = 0
+            held: deque[int] = deque()
 
             def emit(done: list) -> None:
                 for planes, fm in done:
-                    pts = held.pop(0)
+                    pts = held.popleft()
                     if pts in wanted:
                         writer.write(planes, pts)
-                        motions.append(dataclasses.replace(
-                            _light(fm), index=job.pts.index(pts)))
+                        motions.append(dataclasses.replace(_light(fm), index=wanted[pts]))
 
             for planes, pts in frames:
                 held.append(pts)
                 emit(corr.push(planes, (pts - first) * tb * job.fps))
-                n += 1
             emit(corr.flush())
         if len(motions) != seg.end - seg.start:
             raise InputError(f"decoded {len(motions)} of its {seg.end - seg.start} frames")
