@@ -157,6 +157,7 @@ STAGES = (
     ("remap (every plane)", [("unjello.warp", "apply_maps")]),
     ("fill from neighbours", [("unjello.warp", "neighbour_sources"),
                               ("unjello.warp", "fill_from_neighbours")]),
+    ("per-scanline maps", [("unjello.warp", "remap_maps")]),
     ("warp: the rest", [("unjello.warp.PictureWarper", "__call__")]),
 )
 
@@ -208,7 +209,8 @@ def _cpu() -> float:
     return time.process_time()  # user + sys of every thread, at the clock's resolution
 
 
-def profile_stages(clip: Path, out: Path, frames: int) -> dict[str, float]:
+def profile_stages(clip: Path, out: Path, frames: int,
+                   config: CorrectionConfig = CorrectionConfig()) -> dict[str, float]:
     """Decode, correct and encode ``clip`` stage after stage; CPU ms per frame by stage."""
     import cv2
 
@@ -223,7 +225,7 @@ def profile_stages(clip: Path, out: Path, frames: int) -> dict[str, float]:
                     items.append((item, pts))
         decode = _cpu() - t
         timing = SensorTiming(0.9)
-        corr = Corrector(timing, CorrectionConfig())
+        corr = Corrector(timing, config)
         done = []
         with StageClock() as clock:
             t = _cpu()
