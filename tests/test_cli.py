@@ -357,3 +357,15 @@ def test_simulate_writes_a_gyro_log_that_corrects_its_clip(tmp_path, scene):
     assert mean["psnr"] > unc + 6
     again = run("simulate", src, "-o", rs, "--truth", gs, "--gyro-out", log)
     assert "exists" in clean_failure(again)
+
+
+def test_probe_reports_the_readout_and_lens_correct_uses(shared_data, tmp_path):
+    src = shared_data / "sequences" / "gopro_gpmf" / "karma.mp4"
+    doc = json.loads(run("probe", src, "--json").stdout)
+    assert doc["readout_source"].startswith("camera database")
+    assert doc["readout_ms"] == pytest.approx(21.69, abs=0.01)
+    assert doc["lens"]["focal"] > 0 and len(doc["lens"]["distortion"]) == 4
+    res = run("correct", src, "-o", tmp_path / "o.mp4", "--preset", "fast", "--json", "-q")
+    said = json.loads(res.stdout)
+    assert said["readout"] == pytest.approx(doc["readout"], abs=1e-6)
+    assert said["sources"]["readout"] == doc["readout_source"]

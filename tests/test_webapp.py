@@ -211,3 +211,20 @@ def test_page_in_a_browser(server, browser, tmp_path):
     expected = _correct_with(command, tmp_path, 0)
     assert np.abs(after.astype(int) - expected.astype(int)).max() <= 1
     assert "corrected in" in browser.find_element("id", "status").text
+
+
+def test_preview_undistorts_with_the_camera_databases_lens(shared_data):
+    """`correct --undistort` finds the Karma's lens in the camera database; the preview
+    must too (it answered every frame with "undistort needs the lens")."""
+    from unjello.config import CorrectionConfig
+
+    src = shared_data / "sequences" / "gopro_gpmf" / "karma.mp4"
+    with PreviewClip(src, CorrectionConfig(undistort=True), max_frames=8) as clip:
+        assert clip.base.gyro.focal is not None and clip.base.gyro.distortion is not None
+        assert clip.initial.readout == pytest.approx(0.65, abs=1e-3)  # the database's
+        out, _ = clip.corrected(3, clip.initial)
+        plain = PreviewClip(src, CorrectionConfig(), max_frames=8)
+        with plain:
+            kept, _ = plain.corrected(3, plain.initial)
+    assert out.shape == kept.shape
+    assert float(np.abs(out.astype(float) - kept).mean()) > 1.0  # the curvature taken out

@@ -542,21 +542,31 @@ def plot(motion: Path, output: Path, overwrite: bool) -> None:
 @click.argument("input", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True)
 def probe(input: Path, as_json: bool) -> None:
-    """Describe a video: size, rate (and whether it varies), rotation, audio, format."""
-    from .io.sidecars import stated_readout
+    """Describe a video: size, rate, rotation, audio, format, and the readout and lens used."""
+    from .clip import resolve_clip
+    from .io.source import FrameSource
     from .io.video import probe as run_probe
     from .io.video import variable_rate
 
     info = run_probe(input)
     vfr = variable_rate(input)
-    stated = stated_readout(input)
+    # What `correct` would use: the same resolution of the clip's settings (lens included).
+    with FrameSource(input) as source:
+        config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), input, source)
+    said = resolved.sources["readout"]
+    stated = said != "default"
+    ms = resolved.timing.readout / resolved.fps * 1e3
+    lens = ({"focal": round(config.gyro.focal, 2), "distortion": list(config.gyro.distortion)}
+            if config.gyro.focal is not None and config.gyro.distortion is not None else None)
     doc = {"path": str(input), "width": info.width, "height": info.height,
            "fps": round(info.fps, 4), "variable_frame_rate": vfr, "frames": info.frames,
            "duration": round(info.duration, 3), "codec": info.codec, "pix_fmt": info.pix_fmt,
            "bit_depth": info.bit_depth, "rotation": info.rotation,
            "audio_streams": info.audio_streams,
-           "readout_ms": stated.milliseconds if stated else None,
-           "readout_source": stated.source if stated else None,
+           "readout": round(resolved.timing.readout, 6) if stated else None,
+           "readout_ms": round(ms, 4) if stated else None,
+           "readout_source": said if stated else None,
+           "direction": resolved.timing.direction, "lens": lens,
            "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}
     if as_json:
         click.echo(json.dumps(doc))
@@ -566,12 +576,15 @@ def probe(input: Path, as_json: bool) -> None:
                f"{info.frames} frames, {info.duration:.2f} s")
     click.echo(f"rotation {info.rotation} deg, {info.audio_streams} audio stream(s)")
     if stated:
-        ratio = stated.milliseconds * 1e-3 * info.fps
-        click.echo(f"readout: {stated.milliseconds:g} ms ({ratio:.3f} of the frame interval), "
-                   f"from the {stated.source}")
+        click.echo(f"readout: {ms:.4g} ms ({resolved.timing.readout:.4g} of the frame "
+                   f"interval, {resolved.timing.direction}), from the {said}")
     else:
-        click.echo("readout: not stated by the file or a sidecar; measure it (unjello readout), "
-                   "estimate it (unjello estimate-readout) or pass --readout")
+        click.echo("readout: not stated by the file, a sidecar or the camera database; "
+                   "measure it (unjello readout), estimate it (unjello estimate-readout) or "
+                   "pass --readout")
+    if lens:
+        click.echo(f"lens: focal {lens['focal']:.0f} px, fisheye k "
+                   + ", ".join(f"{v:.3g}" for v in lens["distortion"]))
 
 
 @cli.command()

@@ -16,6 +16,7 @@ of HTTP.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shlex
@@ -31,11 +32,11 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
-from .config import CorrectionConfig, resolve_timing
+from .clip import resolve_clip
+from .config import CorrectionConfig
 from .errors import InputError, SettingsError
 from .io.frames import read_image, write_image
 from .io.source import FrameSource, read_frames
-from .io.telemetry import camera_of
 from .pipeline import Corrector
 from .timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
 from .trajectory import FrameMotion, Trajectory
@@ -182,9 +183,13 @@ class PreviewClip:
         self.src = Path(src)
         if not self.src.exists():
             raise InputError(f"{self.src}: no such file or folder")
-        self.base = config
+        if config.method not in PREVIEW_METHODS:
+            config = dataclasses.replace(config, method="dense")
         with FrameSource(self.src) as source:
             info = source.info
+            # As `correct` decides them: the timing, and the lens (for undistorting).
+            config, resolved, *_ = resolve_clip(config, self.src, source)
+        self.base = config
         self._dir = tempfile.TemporaryDirectory(prefix="unjello-preview-")
         self.count = 0
         shape: tuple[int, ...] = ()
@@ -200,15 +205,9 @@ class PreviewClip:
         self.truncated = info.frames > self.count if info.frames else False
         self.height, self.width = int(shape[0]), int(shape[1])
         self.is_video = info.is_video
-        identified = camera_of(self.src) if info.is_video else None
-        resolved = resolve_timing(
-            config, path=self.src, video_fps=info.fps, size=(self.width, self.height),
-            identified=None if config.camera else identified,
-            estimate=lambda direction, fps: _estimate(self.src, direction, fps))
         self.fps = resolved.fps
         self.resolved = resolved
-        method = config.method if config.method in PREVIEW_METHODS else "dense"
-        self.initial = PreviewSettings(method, float(resolved.timing.readout),
+        self.initial = PreviewSettings(config.method, float(resolved.timing.readout),
                                        resolved.timing.direction, resolved.timing.reference,
                                        not config.dense.per_pixel)
         self._frames: _LRU = _LRU(2 * _AROUND + 4)
@@ -293,12 +292,6 @@ class PreviewClip:
 def _frame_of(fm: FrameMotion, n: int) -> FrameMotion:
     """Return the frame's motion, light, under its index in the clip."""
     return FrameMotion(n, float(n), fm.displacement, fm.velocity, ok=fm.ok, note=fm.note)
-
-
-def _estimate(src: Path, direction: str, fps: float) -> Any:
-    from .readout import estimate_readout_file
-
-    return estimate_readout_file(src, direction=direction, fps=fps)
 
 
 def encode_png(image: np.ndarray) -> bytes:
