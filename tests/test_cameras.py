@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from unjello import cameras
-from unjello.config import CorrectionConfig, resolve_timing
+from unjello.clip import resolve_timing
+from unjello.config import CorrectionConfig
 from unjello.errors import SettingsError
 
 from .clips import make_clip

@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from unjello.config import OPTIONS, PRESETS, CorrectionConfig, resolve_timing
+from unjello.clip import resolve_timing
+from unjello.config import OPTIONS, PRESETS, CorrectionConfig
 from unjello.errors import SettingsError
 from unjello.timing import Milliseconds, SensorTiming
 

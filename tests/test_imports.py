@@ -4,6 +4,8 @@
 * ``unjello.motion`` imports none of ``io``, ``warp``, ``pipeline``, ``config``, ``cli``
   (methods take arrays and return a Trajectory's frames);
 * nothing imports ``unjello.cli`` (but ``__main__``);
+* ``unjello.config`` is the settings schema: it reads no file (none of ``io``'s readers;
+  ``io.video`` only for the encoder's settings); ``unjello.clip`` reads a clip's files;
 * no two modules import each other, directly or through others (no cycles).
 
 Imports inside functions count: a lazy import is still a dependency.
@@ -74,6 +76,15 @@ def test_motion_imports_no_files_warp_pipeline_or_cli(module):
               "unjello.exports", "unjello.batch")
     bad = {m for m in GRAPH[module] if m.startswith(banned)}
     assert not bad, f"{module} imports {bad}"
+
+
+def test_the_settings_read_no_file():
+    io = {m for m in GRAPH["unjello.config"] if m.startswith("unjello.io")}
+    assert io <= {"unjello.io.video"}, io  # EncodeOptions, the encoder's settings
+    tree = ast.parse((SRC / "config.py").read_text())
+    names = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+             and (n.module or "").startswith("io") for a in n.names}
+    assert names <= {"EncodeOptions"}, names
 
 
 def test_nothing_imports_the_cli():

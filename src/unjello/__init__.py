@@ -15,7 +15,8 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .batch import run_batch
-from .config import CorrectionConfig, ResolvedTiming, resolve_timing
+from .clip import ResolvedTiming, resolve_timing
+from .config import CorrectionConfig
 from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
 from .io.sidecars import read_gyro, write_gyro
 from .io.video import EncodeOptions

@@ -1,4 +1,4 @@
-"""Settings, resolved once: :class:`CorrectionConfig`, its presets, and :func:`resolve_timing`.
+"""Settings: :class:`CorrectionConfig`, its options and presets (no file is read here).
 
 Every knob a user can turn is one field of :class:`CorrectionConfig` (or of the method
 settings it holds) and one :class:`Option` in :data:`OPTIONS`: its preset key, its flag
@@ -6,8 +6,8 @@ settings it holds) and one :class:`Option` in :data:`OPTIONS`: its preset key, i
 those two edits.
 
 The sensor's timing -- readout, scan direction, reference line -- and the frame rate can
-come from several places. :func:`resolve_timing` decides them in one documented order and
-records where each value came from:
+come from several places. :func:`unjello.clip.resolve_timing` decides them in one
+documented order and records where each value came from:
 
 1. a motion file applied with ``motion_in`` (its timing is the one it was made with);
 2. the settings (in turn: the command line, a preset, Python);
@@ -28,9 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .cameras import CameraMatch, match
 from .errors import SettingsError
-from .io.sidecars import read_lens_profile, stated_readout
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig
 from .motion.gyro import GyroConfig
@@ -39,15 +37,12 @@ from .stabilize import StabilizeConfig, crop_request
 from .timing import (
     DIRECTIONS,
     REFERENCES,
-    Milliseconds,
     ReadoutRequest,
-    SensorTiming,
     readout_request,
 )
 from .warp import FILLS, WARPS
 
-__all__ = ["METHODS", "PRESETS", "OPTIONS", "Option", "CorrectionConfig", "ResolvedTiming",
-           "resolve_timing"]
+__all__ = ["METHODS", "PRESETS", "OPTIONS", "Option", "CorrectionConfig", "FOLDER_FPS"]
 
 METHODS = ("dense", "paper", "gyro")
 
@@ -447,169 +442,3 @@ PRESETS: dict[str, dict[str, Any]] = {
     # Hand-held walking shots: the correction and a stabilisation in one warp.
     "handheld": {"stabilize": True},
 }
-
-
-@dataclass(frozen=True)
-class ResolvedTiming:
-    """The timing a clip is corrected with, and where each value came from.
-
-    Attributes
-    ----------
-    timing : SensorTiming
-        Readout (a fraction), direction, reference.
-    fps : float
-        The frame rate whose interval is the unit of time.
-    sources : dict
-        ``readout``, ``direction``, ``reference`` and ``fps`` -> where the value came
-        from (``"command line"``, ``"preset drone"``, ``"sidecar NAME.json"``,
-        ``"container metadata"``, ``"estimated from the motion"``, ``"motion file"``,
-        ``"the video"``, ``"default"``).
-    messages : tuple of str
-        What the user should be told (a readout found or estimated, a weak estimate).
-    """
-
-    timing: SensorTiming
-    fps: float
-    sources: Mapping[str, str]
-    messages: tuple[str, ...] = ()
-
-
-def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | None,
-                   motion_timing: SensorTiming | None = None,
-                   estimate: Callable[[str, float], Any] | None = None,
-                   size: tuple[int, int] | None = None,
-                   identified: str | None = None) -> ResolvedTiming:
-    """Decide readout, direction, reference and frame rate, in the documented order.
-
-    Parameters
-    ----------
-    config : CorrectionConfig
-        The settings (their :attr:`~CorrectionConfig.origins` say who gave them).
-    path : Path
-        The clip (its sidecars and metadata are read for a stated readout).
-    video_fps : float or None
-        The video's own frame rate; None for a folder.
-    motion_timing : SensorTiming, optional
-        The timing of a motion file being applied: it wins.
-    estimate : callable, optional
-        ``estimate(direction, fps)`` returning a
-        :class:`~unjello.readout.ReadoutEstimate`, for ``readout="auto"`` when nothing
-        states the readout.
-    size : (int, int), optional
-        The clip's width and height, to pick the camera's modes in the database.
-    identified : str, optional
-        The camera the file names (:func:`unjello.io.telemetry.camera_of`), used when
-        ``camera`` is not given.
-
-    Notes
-    -----
-    The readout, in order: the settings (command line, preset); a lens profile given
-    (``lens_profile``); a sidecar or the file's metadata (:func:`stated_readout`); the
-    camera database (:func:`unjello.cameras.match`) for the camera given or the one the
-    file names; the estimate (``readout="auto"``); 1.0. The direction: the settings,
-    else the database's sign of the readout, else top to bottom.
-
-    Returns
-    -------
-    ResolvedTiming
-
-    Raises
-    ------
-    SettingsError
-        A readout in milliseconds for a folder without ``fps``, or one that is more than
-        a frame interval at the clip's rate.
-    """
-    given = config.origins
-    sources: dict[str, str] = {}
-    messages: list[str] = []
-    if config.fps is not None:
-        fps, sources["fps"] = float(config.fps), given.get("fps", "settings")
-    elif video_fps:
-        fps, sources["fps"] = float(video_fps), "the video"
-    else:
-        fps, sources["fps"] = FOLDER_FPS, "default"
-    if motion_timing is not None:
-        sources.update(readout="motion file", direction="motion file", reference="motion file")
-        return ResolvedTiming(motion_timing, fps, sources)
-    direction = config.direction or "top-bottom"
-    sources["direction"] = given.get("direction", "settings") if config.direction else "default"
-    reference = config.reference or "middle"
-    sources["reference"] = given.get("reference", "settings") if config.reference else "default"
-
-    def ratio(ms: Milliseconds) -> float:
-        if sources["fps"] == "default":
-            raise SettingsError(f"a readout of {ms} needs the frame rate: a folder states "
-                                "none; give fps=")
-        return ms.ratio(fps)
-
-    request = config.readout
-    readout: float
-    if request is not None and request != "auto":
-        sources["readout"] = given.get("readout", "settings")
-        readout = ratio(request) if isinstance(request, Milliseconds) else float(request)
-    else:
-        stated = None
-        if config.lens_profile:
-            profile = read_lens_profile(config.lens_profile)
-            stated = profile.readout
-            if stated is None:
-                messages.append(f"the lens profile {profile.name} states no "
-                                "frame_readout_time")
-        stated = stated or stated_readout(path)
-        found = None if stated is not None else _database(config, identified, size, fps)
-        est = None
-        if (found is not None and not found.same_aspect and request == "auto"
-                and estimate is not None):
-            # A readout borrowed from sensor modes of another aspect ratio is a guess: a
-            # reliable estimate from the clip's own motion goes first.
-            est = estimate(direction, fps)
-            if est.reliable:
-                messages.append(f"the camera database has no mode of {found.camera} like "
-                                "this clip's, so its readout is not used")
-                found = None
-            else:
-                messages.append(f"the motion is too weak or too uniform to estimate the "
-                                f"readout (confidence {est.confidence:.2f})")
-        if stated is not None:
-            sources["readout"] = stated.source
-            readout = ratio(Milliseconds(stated.milliseconds))
-            messages.append(f"readout {stated.milliseconds:g} ms from the {stated.source}")
-        elif found is not None:
-            sources["readout"] = f"camera database ({found.camera})"
-            readout = ratio(Milliseconds(min(found.readout_ms, 1000.0 / fps)))
-            messages.append(found.describe())
-            if config.direction is None and found.direction != direction:
-                direction, sources["direction"] = found.direction, sources["readout"]
-        elif request == "auto" and estimate is not None:
-            est = est or estimate(direction, fps)
-            readout = float(est.readout)
-            if est.reliable:
-                sources["readout"] = "estimated from the motion"
-                messages.append(f"readout estimated from the motion: {est.readout:.3f} of the "
-                                f"frame interval (confidence {est.confidence:.2f}, "
-                                f"{est.model} motion model)")
-            else:
-                sources["readout"] = "default"
-                messages.append(f"warning: the motion is too weak or too uniform to estimate "
-                                f"the readout (confidence {est.confidence:.2f}); using "
-                                f"{est.readout:g}")
-        else:
-            readout, sources["readout"] = 1.0, "default"
-    timing = SensorTiming(readout, direction, reference)  # type: ignore[arg-type]
-    return ResolvedTiming(timing, fps, sources, tuple(messages))
-
-
-def _database(config: CorrectionConfig, identified: str | None,
-              size: tuple[int, int] | None, fps: float) -> CameraMatch | None:
-    """Return the camera database's match for the camera given, else the one the file names."""
-    name = config.camera or identified
-    if not name:
-        return None
-    w, h = size if size else (None, None)
-    found = match(name, w, h, fps)
-    if found is None and config.camera:
-        raise SettingsError(f"camera {config.camera!r}: the camera database has no readout "
-                            "for it (see `unjello cameras`)")
-    if found is not None and found.readout_ms * fps / 1000.0 > 1.02:
-        return None  # a profile of another frame rate, longer than this clip's frames
-    return found

@@ -20,8 +20,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .clip import resolve_clip
-from .config import CorrectionConfig, ResolvedTiming
+from .clip import ResolvedTiming, resolve_clip
+from .config import CorrectionConfig
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
 from .io.sidecars import read_gyro
@@ -322,7 +322,7 @@ def correct_video(
         frames under the same names.
     config : CorrectionConfig
         Timing, method, warp and encoder (:mod:`unjello.config`; readout, direction,
-        reference and frame rate are decided by :func:`unjello.config.resolve_timing`).
+        reference and frame rate are decided by :func:`unjello.clip.resolve_timing`).
     overwrite : bool
         Replace existing outputs.
     motion_out : path-like, optional
@@ -339,7 +339,7 @@ def correct_video(
     log : callable, optional
         Receives one-line messages (where the readout came from, warnings).
     on_timing : callable, optional
-        Called once with the :class:`~unjello.config.ResolvedTiming`: the readout,
+        Called once with the :class:`~unjello.clip.ResolvedTiming`: the readout,
         direction, reference and frame rate used, and where each came from.
     on_gyro : callable, optional
         With the gyro method, called once at the end with what became of the gyro:

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from .batch import executor
-from .clip import resolve_clip
-from .config import CorrectionConfig, ResolvedTiming
+from .clip import ResolvedTiming, resolve_clip
+from .config import CorrectionConfig
 from .errors import InputError, SettingsError, UnjelloError
 from .io.remux import FrameIndex, frame_index, join_segments, read_stretch
 from .io.sink import check_paths, remove, replace, temp_path

@@ -231,7 +231,7 @@ def parse_readout(text: str | float, fps: float | None = None) -> float:
     req = readout_request(text)
     if req == "auto":
         raise SettingsError("readout 'auto' is decided from the clip "
-                            "(unjello.config.resolve_timing), not parsed")
+                            "(unjello.clip.resolve_timing), not parsed")
     if isinstance(req, Milliseconds):
         if not fps:
             raise SettingsError("a readout in milliseconds needs the clip's frame rate")
