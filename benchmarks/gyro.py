@@ -31,10 +31,10 @@ import numpy as np
 from skimage import data
 
 from unjello.config import CorrectionConfig
+from unjello.gyrolog import GyroConfig, axes_matrix
 from unjello.io.frames import list_frames, read_image
 from unjello.io.sidecars import write_gyro
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import GyroConfig, axes_matrix
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming

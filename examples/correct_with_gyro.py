@@ -13,8 +13,8 @@ import numpy as np
 from skimage import data
 
 import unjello
+from unjello.gyrolog import axes_matrix
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import axes_matrix
 
 timing = unjello.SensorTiming(readout=0.9)
 motion = unjello.Motion("shake", fps=30.0)

@@ -268,7 +268,7 @@ def test_textureless_video_is_handled(tmp_path):
 def test_correct_with_a_gyro_log(tmp_path, scene):
     """A folder of frames and its gyro log (another clock, other axes): calibrated, corrected."""
 
-    from unjello.motion.gyro import axes_matrix
+    from unjello.gyrolog import axes_matrix
     from unjello.simulate import Motion, gyro_samples, simulate
     from unjello.timing import SensorTiming
 

@@ -3,6 +3,8 @@
 * only ``unjello.io`` imports ``av`` (I/O at the edges);
 * ``unjello.motion`` imports none of ``io``, ``warp``, ``pipeline``, ``config``, ``cli``
   (methods take arrays and return a Trajectory's frames);
+* ``unjello.io`` imports nothing from ``motion`` (the readers make data: a gyro log is
+  :mod:`unjello.gyrolog`'s, not the gyro method's);
 * nothing imports ``unjello.cli`` (but ``__main__``);
 * ``unjello.config`` is the settings schema: it reads no file (none of ``io``'s readers;
   ``io.video`` only for the encoder's settings); ``unjello.clip`` reads a clip's files;
@@ -85,6 +87,12 @@ def test_the_settings_read_no_file():
     names = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
              and (n.module or "").startswith("io") for a in n.names}
     assert names <= {"EncodeOptions"}, names
+
+
+@pytest.mark.parametrize("module", sorted(m for m in GRAPH if m.startswith("unjello.io")))
+def test_io_imports_nothing_from_motion(module):
+    bad = {m for m in GRAPH[module] if m.startswith("unjello.motion")}
+    assert not bad, f"{module} imports {bad}"
 
 
 def test_nothing_imports_the_cli():

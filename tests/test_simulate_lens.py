@@ -9,10 +9,10 @@ from skimage import data
 
 from unjello.config import CorrectionConfig
 from unjello.errors import SettingsError
+from unjello.gyrolog import GyroConfig
 from unjello.io.frames import write_image
 from unjello.io.sidecars import write_gyro
 from unjello.metrics import psnr
-from unjello.motion.gyro import GyroConfig
 from unjello.pipeline import correct_frames
 from unjello.simulate_lens import simulate_rotation
 from unjello.timing import SensorTiming

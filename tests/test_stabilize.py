@@ -247,7 +247,7 @@ def test_the_gyro_method_stabilises_along_the_gyros_path(shaky, stabilised):
     """With the gyro method the path is the gyro's rotation at each frame's reference
     time, not points tracked in the picture. Measured on the 40 shaky frames, path less
     the truth (its mean taken out), px RMS x / y: gyro 0.004 / 0.002, tracked 0.02 / 0.05."""
-    from unjello.motion.gyro import GyroConfig, GyroLog
+    from unjello.gyrolog import GyroConfig, GyroLog
     from unjello.pipeline import Corrector
     from unjello.simulate import gyro_samples
 

@@ -18,12 +18,13 @@ from .batch import run_batch
 from .clip import ResolvedTiming, resolve_timing
 from .config import CorrectionConfig
 from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
+from .gyrolog import GyroConfig, GyroLog
 from .io.sidecars import read_gyro, write_gyro
 from .io.video import EncodeOptions
 from .metrics import evaluate
 from .motion.dense import DenseConfig, DenseMethod
 from .motion.global_motion import BlockMatchConfig
-from .motion.gyro import GyroConfig, GyroLog, GyroMethod
+from .motion.gyro import GyroMethod
 from .motion.paper import PaperConfig, PaperMethod
 from .motion.refine import RefineConfig
 from .pipeline import Corrector, correct_frames, correct_video

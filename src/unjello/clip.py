@@ -18,10 +18,10 @@ from typing import Any
 from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
+from .gyrolog import GyroLog
 from .io.sidecars import LensProfile, gyro_source, read_lens_profile, stated_readout
 from .io.source import FrameSource
 from .io.telemetry import camera_of
-from .motion.gyro import GyroLog
 from .readout import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
 from .trajectory import Trajectory

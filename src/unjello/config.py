@@ -29,9 +29,9 @@ from pathlib import Path
 from typing import Any
 
 from .errors import SettingsError
+from .gyrolog import GyroConfig
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig
-from .motion.gyro import GyroConfig
 from .motion.paper import PaperConfig
 from .stabilize import StabilizeConfig, crop_request
 from .timing import (

@@ -24,12 +24,12 @@ from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
+from .gyrolog import GyroLog
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
-from .motion.gyro import GyroLog
 from .motion.paper import PaperMethod
 from .parallel import cores, frame_threads
 from .stabilize import Stabilizer, track, tracking_copy

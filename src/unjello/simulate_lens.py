@@ -7,7 +7,7 @@ pixel ``p`` of the row read at time ``t`` sees the world direction
 ``R(t)^T undistort(p)``, with ``R(t)`` the rotation by ``Theta(t)``, the integral of the
 angular rate (the gyro method's own first-order model). The world is a textured plane far
 away (a photo at ``z = 1``). The global-shutter truth is the same frame with every row at
-the reference time; the rates come back as the :class:`~unjello.motion.gyro.GyroLog` the
+the reference time; the rates come back as the :class:`~unjello.gyrolog.GyroLog` the
 camera's gyro would have recorded.
 """
 
@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .motion.gyro import GyroLog
+from .gyrolog import GyroLog
 from .timing import SensorTiming
 
 __all__ = ["RotatingFrame", "simulate_rotation"]

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
+from unjello.gyrolog import GyroConfig, GyroLog
 from unjello.motion.dense import DenseConfig, DenseMethod
 from unjello.motion.fallback import GyroOrDense
-from unjello.motion.gyro import GyroConfig, GyroLog, GyroMismatch
+from unjello.motion.gyro import GyroMismatch
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
 

@@ -4,15 +4,9 @@ import numpy as np
 import pytest
 
 from unjello.errors import InputError, SettingsError
+from unjello.gyrolog import GyroConfig, GyroLog, axes_matrix
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import (
-    GyroCalibration,
-    GyroConfig,
-    GyroLog,
-    GyroMethod,
-    axes_matrix,
-    gyro_field,
-)
+from unjello.motion.gyro import GyroCalibration, GyroMethod, gyro_field
 from unjello.simulate import Motion, gyro_samples, simulate
 from unjello.timing import SensorTiming
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SettingsError
-from ..motion.gyro import GyroConfig, GyroLog
+from ..gyrolog import GyroConfig, GyroLog
 from .telemetry import EmbeddedGyro, embedded_gyro, telemetry_available, vendor_call
 
 __all__ = ["StatedReadout", "stated_readout", "LensProfile", "read_lens_profile",

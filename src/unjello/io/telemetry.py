@@ -4,7 +4,7 @@ Action cameras, drones and many mirrorless bodies record their IMU beside the pi
 GoPro (GPMF), Sony (rtmd), DJI, Insta360, Blackmagic and others. The ``telemetry-parser``
 package (the Gyroflow project's reader) decodes them all and gives the samples in one
 form: times in ms on the video's clock and angular rates in degrees per second, in the
-camera's own axes. This module turns them into a :class:`~unjello.motion.gyro.GyroLog`
+camera's own axes. This module turns them into a :class:`~unjello.gyrolog.GyroLog`
 (seconds, rad/s) for the gyro method; which gyro axes are the camera's x, y and z, the
 clock offset and the focal length are still found from the footage
 (:func:`unjello.motion.gyro.calibrate`) unless they are given.
@@ -23,7 +23,7 @@ import numpy as np
 
 from ..cameras import camera_name
 from ..errors import InputError
-from ..motion.gyro import GyroLog
+from ..gyrolog import GyroLog
 
 __all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available", "camera_of",
            "vendor_call"]

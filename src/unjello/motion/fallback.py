@@ -16,10 +16,11 @@ from collections.abc import MutableMapping
 
 import numpy as np
 
+from ..gyrolog import GyroConfig, GyroLog
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .dense import DenseConfig, DenseMethod
-from .gyro import GyroConfig, GyroLog, GyroMethod, GyroMismatch
+from .gyro import GyroMethod, GyroMismatch
 
 __all__ = ["GyroOrDense"]
 
