@@ -141,6 +141,7 @@ def test_video_with_zero_frames(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["zero.mkv"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_removes_partial_output(tmp_path, scene):
     import signal
     import subprocess

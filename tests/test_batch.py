@@ -40,12 +40,14 @@ def test_local_batch_resumable_and_reports_failures(clips, tmp_path):
     assert sorted(r["status"] for r in again) == ["failed", "skipped", "skipped", "skipped"]
 
 
+@pytest.mark.slow
 def test_dask_batch(clips, tmp_path):
     pytest.importorskip("distributed")
     rows = run_batch([str(clips / "clip*.mp4")], tmp_path / "out", kind="dask", workers=2)
     assert [r["status"] for r in rows] == ["ok", "ok", "ok"]
 
 
+@pytest.mark.slow
 def test_ray_batch(clips, tmp_path):
     pytest.importorskip("ray")
     rows = run_batch([str(clips / "clip0.mp4")], tmp_path / "out", kind="ray", workers=1)
@@ -59,6 +61,7 @@ def test_batch_cli_exit_code(clips, tmp_path):
     assert "Traceback" not in res.stderr
 
 
+@pytest.mark.slow
 def test_batch_with_the_gyro_method_finds_each_clips_log(tmp_path, scene):
     """`batch --method gyro`: a clip with NAME.gyro.csv beside it is corrected, one
     without is reported as failed, with the fix in its message."""

@@ -170,6 +170,7 @@ def test_readout_command(shared_data):
     assert "15.7" in res.stdout and "--readout 0.47" in res.stdout
 
 
+@pytest.mark.slow
 def test_correct_with_auto_readout(tmp_path, scene):
     src = tmp_path / "scene.png"
     write_image(src, scene)
@@ -227,6 +228,7 @@ def test_probe_json(clip):
     assert doc["variable_frame_rate"] is False and doc["readout_ms"] is None
 
 
+@pytest.mark.slow
 def test_plot_command(tmp_path, clip):
     motion = tmp_path / "m.json"
     assert run("correct", clip, "-o", tmp_path / "o.mp4", "--motion-out", motion,
@@ -265,6 +267,7 @@ def test_textureless_video_is_handled(tmp_path):
     assert max(np.abs(np.asarray(f["displacement"])).max() for f in frames) < 0.05
 
 
+@pytest.mark.slow
 def test_correct_with_a_gyro_log(tmp_path, scene):
     """A folder of frames and its gyro log (another clock, other axes): calibrated, corrected."""
 
@@ -359,6 +362,7 @@ def test_simulate_writes_a_gyro_log_that_corrects_its_clip(tmp_path, scene):
     assert "exists" in clean_failure(again)
 
 
+@pytest.mark.slow
 def test_probe_reports_the_readout_and_lens_correct_uses(shared_data, tmp_path):
     src = shared_data / "sequences" / "gopro_gpmf" / "karma.mp4"
     doc = json.loads(run("probe", src, "--json").stdout)

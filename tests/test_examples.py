@@ -10,6 +10,7 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["correct_simulated_clip.py", "correct_with_gyro.py"])
 def test_example_corrects_its_clip(name):
     res = subprocess.run([sys.executable, str(EXAMPLES / name)], capture_output=True,

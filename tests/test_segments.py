@@ -63,6 +63,7 @@ def test_local_segments_give_the_frames_of_one_run(clip, single, tmp_path):
         assert np.allclose(fa.displacement, fb.displacement, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_an_interrupted_run_redoes_only_the_unfinished_segments(clip, single, tmp_path,
                                                                  monkeypatch):
     import unjello.segments as segments

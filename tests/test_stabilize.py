@@ -282,6 +282,7 @@ def test_step_coherence_tells_a_real_turn_from_a_trackers_noise():
         assert step_coherence(wobble + np.cumsum(rng.normal(0, 1e-4, 55))) > 2 * COHERENT
 
 
+@pytest.mark.slow
 def test_a_small_roll_that_steps_coherently_is_taken_out(scene):
     # A 0.06 degree, 12-frame roll wobble: under the floor (ROLL_FLOOR) below which a
     # tracked roll is mostly noise, but its steps follow one another (step_coherence), so

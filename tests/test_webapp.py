@@ -213,6 +213,7 @@ def test_page_in_a_browser(server, browser, tmp_path):
     assert "corrected in" in browser.find_element("id", "status").text
 
 
+@pytest.mark.slow
 def test_preview_undistorts_with_the_camera_databases_lens(shared_data):
     """`correct --undistort` finds the Karma's lens in the camera database; the preview
     must too (it answered every frame with "undistort needs the lens")."""

@@ -79,13 +79,15 @@ def run_job(src: str, dst: str, config: CorrectionConfig, overwrite: bool) -> di
     -------
     dict
         ``input``, ``output``, ``status`` (ok, skipped, failed), ``seconds``, ``frames``,
-        ``readout``, ``error``.
+        ``readout``, ``error``, ``warnings`` (what ``correct`` would say,
+        :meth:`unjello.summary.RunSummary.warnings`).
     """
     from .pipeline import correct_video
+    from .summary import summarize
 
     t0 = time.perf_counter()
     row: dict[str, Any] = {"input": src, "output": dst, "status": "ok", "seconds": 0.0,
-                           "frames": 0, "readout": None, "error": None}
+                           "frames": 0, "readout": None, "error": None, "warnings": []}
     if Path(dst).exists() and not overwrite:
         row["status"] = "skipped"
         return row
@@ -93,6 +95,9 @@ def run_job(src: str, dst: str, config: CorrectionConfig, overwrite: bool) -> di
         traj = correct_video(src, dst, config, overwrite=overwrite)
         row["frames"] = len(traj)
         row["readout"] = traj.timing.readout
+        stab = config.stabilize
+        row["warnings"] = summarize(
+            traj, (stab.smoothness, stab.crop) if stab.enabled else None).warnings()
     except UnjelloError as exc:
         row["status"], row["error"] = "failed", str(exc)
     except Exception as exc:  # noqa: BLE001 - one bad clip must not stop a batch

@@ -24,7 +24,7 @@ from . import __version__
 from .config import OPTIONS, PRESETS, CorrectionConfig
 from .errors import SettingsError, UnjelloError
 from .io.video import EncodeOptions
-from .motion.dense import FOLD_WARNING
+from .summary import summarize
 from .timing import DIRECTIONS, REFERENCES, SensorTiming, parse_readout
 
 __all__ = ["main", "cli"]
@@ -222,62 +222,25 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
                                                                 sources=dict(r.sources)),
                              on_gyro=lambda g: decided.update(gyro=g))
     seconds = time.perf_counter() - t0
-    bad = sum(not f.ok for f in traj.frames)
-    if bad and len(traj) > 1:
-        log(f"warning: motion bridged over on {bad} frame(s)")
-    if traj.method == "gyro" and len(traj):
-        log(traj.frames[0].note)  # the calibration: axes, offset, focal length, agreement
-    detected = next((f.note.split(";")[0] for f in traj.frames
-                     if f.note.startswith("vibration detected")), None)
-    if detected:
-        log(f"{detected}, as with --vibration on (--vibration off: never)")
-    kept = [f for f in traj.frames if f.kept > 0]
-    if kept:
-        worst = max(kept, key=lambda f: f.kept)
-        log(f"warning: on {len(kept)} frame(s) the per-pixel motion folded or tore the picture "
-            f"(a fast-spinning object?); there it was given the motion around it (at most "
-            f"{100 * worst.kept:.0f}% of frame {worst.index})")
-    folded = [f for f in traj.frames if f.folds > FOLD_WARNING]
-    if folded:
-        worst = max(folded, key=lambda f: f.folds)
-        log(f"warning: the correction folds or tears the picture on {len(folded)} frame(s) "
-            f"(worst: {100 * worst.folds:.1f}% of frame {worst.index}): motion that unjello "
-            "does not follow, such as a fast-spinning object; compare them with the input")
-    fallback = float(np.mean([f.fallback for f in traj.frames])) if len(traj) else 0.0
-    entering = float(np.mean([f.entering for f in traj.frames])) if len(traj) else 0.0
-    if fallback - entering > 0.1:
-        log(f"warning: the flow was unreliable on {100 * (fallback - entering):.0f}% of the "
-            "pixels (flat areas, occlusions, fast-moving objects); they take the motion of "
-            "their reliable surroundings")
-    if entering > 0.1:
-        log(f"{100 * entering:.0f}% of the pixels show content entering the frame, which no "
-            "neighbour saw: they take the motion of their surroundings")
-    stabilised = None
-    if config.stabilize.enabled and len(traj):
-        zooms = [f.reframe.zoom for f in traj.frames]
-        shifts = np.abs([f.reframe.shift for f in traj.frames]).max(axis=0)
-        stabilised = {"smoothness": config.stabilize.smoothness,
-                      "crop": config.stabilize.crop,
-                      "zoom": [round(min(zooms), 4), round(max(zooms), 4)],
-                      "largest_shift": [round(float(v), 2) for v in shifts]}
-        log(f"stabilised: camera path smoothed over {config.stabilize.smoothness:g} s; zoom "
-            f"{min(zooms):.3f}-{max(zooms):.3f}; shifts up to {shifts[0]:.1f} px across, "
-            f"{shifts[1]:.1f} px along the scan (top-bottom orientation)")
+    stab = config.stabilize
+    found = summarize(traj, (stab.smoothness, stab.crop) if stab.enabled else None)
+    for line in found.warnings():
+        log(line)
     if as_json:
         click.echo(json.dumps({
             "input": str(input), "output": str(output), "frames": len(traj),
             "method": traj.method, "readout": traj.timing.readout,
             "direction": traj.timing.direction, "reference": traj.timing.reference,
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
-            "bridged_frames": bad, "fallback_fraction": round(fallback, 4),
-            "entering_fraction": round(entering, 4),
-            "kept_frames": [f.index for f in kept],
-            "folded_frames": [f.index for f in folded],
+            "bridged_frames": found.bridged, "fallback_fraction": round(found.fallback, 4),
+            "entering_fraction": round(found.entering, 4),
+            "kept_frames": [i for i, _ in found.kept],
+            "folded_frames": [i for i, _ in found.folded],
             "folds": [round(f.folds, 4) for f in traj.frames],
-            "spun_frames": [f.index for f in traj.frames if f.spun > 0],
+            "spun_frames": list(found.spun), "vibration": found.vibration,
             "confidence": [round(f.confidence, 3) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
-            "gyro": decided["gyro"], "stabilized": stabilised, "messages": messages}))
+            "gyro": decided["gyro"], "stabilized": found.stabilized, "messages": messages}))
     elif not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:.4g} "
                    f"({decided['sources']['readout']}), "

@@ -184,6 +184,11 @@ class Corrector:
         return "replay" if isinstance(self._method, _Replay) else self.config.method
 
     @property
+    def vibration(self) -> float | None:
+        """The dense method's detected vibration (its wobble), if ``auto`` switched it on."""
+        return getattr(self._method, "wobble", None)
+
+    @property
     def gyro(self) -> GyroOrDense | None:
         """The gyro method and what became of it (None for the other methods)."""
         return self._method if isinstance(self._method, GyroOrDense) else None
@@ -293,6 +298,7 @@ def correct_frames(
     for planes, fm in corr.flush():
         out.append(planes[0])
         traj.frames.append(fm)
+    traj.vibration = corr.vibration
     return out, traj
 
 
@@ -428,6 +434,7 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
             held.append(item)
             emit(corrector.push(item.planes, item.start))
         emit(corrector.flush())
+        traj.vibration = corrector.vibration
         sink.close()
         side.finish()
     except BaseException:

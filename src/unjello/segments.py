@@ -108,10 +108,13 @@ def context_frames(config: CorrectionConfig, fps: float) -> int:
 
 
 def _decide_vibration(source: FrameSource, timing: SensorTiming, config: CorrectionConfig,
-                      fps: float) -> CorrectionConfig:
-    """Decide ``vibration='auto'`` once, from the clip's first frames, as one run would."""
+                      fps: float) -> tuple[CorrectionConfig, float | None]:
+    """Decide ``vibration='auto'`` once, from the clip's first frames, as one run would.
+
+    Returns the settings with ``on`` or ``off``, and the wobble detected (or None).
+    """
     if config.method != "dense" or config.dense.vibration != "auto":
-        return config
+        return config, None
     method = DenseMethod(timing, config.dense)
     for picture in source.pictures(fps):
         mv = source.info.max_value
@@ -122,7 +125,8 @@ def _decide_vibration(source: FrameSource, timing: SensorTiming, config: Correct
     if method.vibrating is None:
         method.flush()
     on = "on" if method.vibrating else "off"
-    return dataclasses.replace(config, dense=dataclasses.replace(config.dense, vibration=on))
+    return (dataclasses.replace(config, dense=dataclasses.replace(config.dense, vibration=on)),
+            method.wobble)
 
 
 @dataclass(frozen=True)
@@ -262,7 +266,7 @@ def correct_segmented(
                 log(message)
         if on_timing:
             on_timing(resolved)
-        config = _decide_vibration(source, resolved.timing, config, resolved.fps)
+        config, wobble = _decide_vibration(source, resolved.timing, config, resolved.fps)
         size = (source.info.width, source.info.height)
     index: FrameIndex = frame_index(src_p)
     n = len(index.pts)
@@ -324,7 +328,7 @@ def correct_segmented(
         raise
     replace(tmp, dst_p)
     shutil.rmtree(work, ignore_errors=True)
-    traj = Trajectory(resolved.timing, size, method=config.method)
+    traj = Trajectory(resolved.timing, size, method=config.method, vibration=wobble)
     traj.frames = [fm for i in sorted(motions) for fm in motions[i]]
     report = {"segments": [{"index": s.index, "start": s.start, "end": s.end,
                             "status": status[s.index]} for s in plan],

@@ -239,12 +239,16 @@ class Trajectory:
         One entry per frame, in order.
     method : str
         Name of the method that produced it (``'paper'``, ``'truth'``, ...).
+    vibration : float, optional
+        The dense method's detected vibration (its wobble, a share of the height) when
+        ``vibration='auto'`` switched its window on; None otherwise (not stored in JSON).
     """
 
     timing: SensorTiming
     size: tuple[int, int]
     frames: list[FrameMotion] = field(default_factory=list)
     method: str = ""
+    vibration: float | None = None
 
     def __len__(self) -> int:
         return len(self.frames)

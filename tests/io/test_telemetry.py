@@ -69,6 +69,7 @@ def test_the_gyro_method_uses_the_cameras_own_gyro(tmp_path, scene):
     assert err < 0.05 * unc  # measured: 0.00004x
 
 
+@pytest.mark.slow
 def test_a_gyro_that_does_not_fit_hands_the_clip_to_the_dense_method(tmp_path, scene):
     """The camera's own gyro saw almost no rotation (as on a gimbal) while the picture
     pans: the frames its calibration held go to the dense method, whose motion is then
@@ -102,6 +103,7 @@ def test_a_gyro_that_does_not_fit_hands_the_clip_to_the_dense_method(tmp_path, s
     assert not (tmp_path / "log.mp4").exists()
 
 
+@pytest.mark.slow
 def test_gopro_files(shared_data, tmp_path):
     """The HERO5 Black on a Karma drone and the GoPro Max: both gyros are read. The Max
     stabilised its picture itself (HyperSmooth), so its gyro no longer describes it; the

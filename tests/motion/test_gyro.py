@@ -63,6 +63,7 @@ def _run(method, sim):
     return out + method.flush()
 
 
+@pytest.mark.slow
 def test_calibration_finds_offset_axes_focal_and_corrects_shake(shake):
     mot, timing, sim = shake
     w = sim[0].rolling.shape[1]
@@ -94,6 +95,7 @@ def test_a_known_calibration_streams_frame_by_frame(shake):
         assert [f.index for f in got] == [i]
 
 
+@pytest.mark.slow
 def test_a_log_of_another_clip_is_refused(shake):
     _, timing, sim = shake
     t = np.arange(0, 5, 1 / 400)
@@ -103,6 +105,7 @@ def test_a_log_of_another_clip_is_refused(shake):
         _run(method, sim[:30])
 
 
+@pytest.mark.slow
 def test_real_phone_clip_calibrates_to_its_published_intrinsics(shared_data):
     """The hand-held phone clip: focal near the published K (573.9 px), offset near the
     frame timestamps (the middle row's time within a frame interval of frame 99's stamp).

@@ -91,6 +91,7 @@ def test_diverged_local_samples_fall_back_to_the_global_motion(scene):
     assert err < 0.1 * np.mean([displacement_error(None, s.motion) for s in sim])
 
 
+@pytest.mark.slow
 def test_a_still_frame_after_a_stop_stays_still(scene):
     """The Bezier curve reaches across a sudden stop into the first still frame (the
     paper's Fig. 7); the pair after it shows no motion at all, so the camera stood still
@@ -108,6 +109,7 @@ def test_a_still_frame_after_a_stop_stays_still(scene):
     assert max(err[6:]) < 1e-6 and max(err[:5]) < 0.01
 
 
+@pytest.mark.slow
 def test_a_vibration_it_cannot_follow_is_left_as_is(scene):
     """Drone jello at 23-39 Hz: the curve follows it out of phase in some frames (1.5 dB
     below the input before); those frames are left as is and say why."""

@@ -30,6 +30,7 @@ def test_blobs_count_thin_occlusion_edges_do_not():
     assert TEAR > 1 > FOLD
 
 
+@pytest.mark.slow
 def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(shared_data):
     from unjello.io.frames import list_frames, read_image
     from unjello.motion.dense import FOLD_WARNING

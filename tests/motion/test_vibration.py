@@ -1,6 +1,7 @@
 """Vibration detection: wobble within frames, not shake, layers or fades."""
 
 import numpy as np
+import pytest
 
 from unjello.motion.dense import DenseConfig, DenseMethod
 from unjello.motion.vibration import vibration_level
@@ -33,6 +34,7 @@ def test_vibration_level_tells_wobble_from_shake_and_layers():
     assert layer[0] < 0.004 and still[0] < 1e-9
 
 
+@pytest.mark.slow
 def test_a_fade_from_black_is_not_vibration():
     # A pan that fades in from black over 12 frames (sensor noise of 1 grey level): the
     # noise of the first, nearly black frames wobbles like jello (before the contrast

@@ -223,6 +223,8 @@ class DenseMethod:
         self._decided = config.vibration != "auto"
         self._halves: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
         self._note = ""  # added to every frame's note once vibration is detected
+        #: The wobble (share of the height) for which vibration was detected, else None.
+        self.wobble: float | None = None
         self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
         self._count = 0  # frames pushed
         self._measured = 0  # frames whose flow to the previous frame is taken
@@ -342,6 +344,7 @@ class DenseMethod:
         wobble = detect_vibration(halves, self._frames[0].image.shape[0], self.config.probe)
         if wobble is not None:
             self.config = self.config.vibrating()
+            self.wobble = float(wobble)
             self._note = (f"vibration detected (wobble {100 * wobble:.2f}% of the height): "
                           "one-second window")
 

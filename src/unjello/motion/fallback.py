@@ -74,6 +74,10 @@ class GyroOrDense:
                 self._hand_over(self._distrust, final=False)
             self._held = None
 
+    @property
+    def wobble(self) -> float | None:
+        """The dense method's detected vibration after a hand-over (None before, or none)."""
+        return getattr(self._method, "wobble", None)
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at ``start``."""
         return self._measure((frame, start))

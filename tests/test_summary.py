@@ -1,0 +1,42 @@
+"""A run's findings as fields (unjello.summary), and the lines said of them."""
+
+import numpy as np
+
+from unjello.batch import run_job
+from unjello.config import CorrectionConfig
+from unjello.summary import summarize
+from unjello.timing import SensorTiming
+from unjello.trajectory import FrameMotion, Reframe, Trajectory
+
+from .clips import make_clip
+
+
+def _frame(i, **kw):
+    z = np.zeros((8, 2))
+    return FrameMotion(i, float(i), z, z, **kw)
+
+
+def test_the_summary_reads_the_frames_fields():
+    traj = Trajectory(SensorTiming(0.9), (16, 8), method="dense", vibration=0.004, frames=[
+        _frame(0, ok=False), _frame(1, kept=0.05, folds=0.01, spun=0.02),
+        _frame(2, fallback=0.3, entering=0.05, reframe=Reframe(zoom=1.1, shift=(3.0, -2.0))),
+        _frame(3)])
+    found = summarize(traj, (0.3, "auto"))
+    assert found.frames == 4 and found.bridged == 1 and found.vibration == 0.004
+    assert found.kept == ((1, 0.05),) and found.folded == ((1, 0.01),) and found.spun == (1,)
+    assert np.isclose(found.fallback, 0.075) and np.isclose(found.entering, 0.0125)
+    assert found.stabilized["zoom"] == [1.0, 1.1]
+    assert found.stabilized["largest_shift"] == [3.0, 2.0]
+    lines = found.warnings()
+    assert len(lines) == 5  # bridged, vibration, kept, folded, stabilised
+    assert sum(line.startswith("warning:") for line in lines) == 3
+    assert summarize(Trajectory(SensorTiming(), (16, 8), frames=[_frame(0)])).warnings() == []
+
+
+def test_batch_lines_carry_the_warnings(scene, tmp_path):
+    src = tmp_path / "clip.mp4"
+    make_clip(src, scene, n=6, size=(160, 120))
+    row = run_job(str(src), str(tmp_path / "out.mp4"),
+                  CorrectionConfig(readout=1.0).with_options(stabilize=True), False)
+    assert row["status"] == "ok"
+    assert any(line.startswith("stabilised:") for line in row["warnings"])
