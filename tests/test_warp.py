@@ -152,17 +152,18 @@ def test_undistorting_reads_the_same_in_every_scan_direction(scene):
     gives the input undistorted in its own orientation, in one resampling."""
     import cv2
 
+    from unjello.lens import Lens
     from unjello.timing import DIRECTIONS, to_top_bottom
     from unjello.trajectory import FrameMotion
-    from unjello.warp import PictureWarper, apply_maps, undistort_maps
+    from unjello.warp import PictureWarper, apply_maps
 
     lens = (0.06, 0.03, -0.005, 0.002)
     img = cv2.resize(scene, (160, 120))
-    expected = apply_maps(img, undistort_maps((120, 160), 110.0, lens))
+    expected = apply_maps(img, Lens(110.0, lens).undistortion_maps((120, 160)))
     for direction in DIRECTIONS:
         h = to_top_bottom(img, direction).shape[0]
         still = FrameMotion(0, 0.0, np.zeros((h, 2)), np.zeros((h, 2)))
-        warper = PictureWarper(SensorTiming(1.0, direction), undistort=(110.0, lens))
+        warper = PictureWarper(SensorTiming(1.0, direction), undistort=Lens(110.0, lens))
         out = warper([img], still)[0]
         assert out.shape == img.shape
         assert np.abs(out.astype(int) - expected).max() <= 1, direction

@@ -28,6 +28,7 @@ from .gyrolog import GyroLog
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
+from .lens import Lens
 from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
 from .motion.paper import PaperMethod
@@ -134,7 +135,7 @@ class Corrector:
                 raise SettingsError("undistort needs the lens: lens_profile=, camera= (a "
                                     "camera the database has a lens for), or focal= with "
                                     "distortion=")
-            lens = (config.gyro.focal, config.gyro.distortion)
+            lens = Lens(config.gyro.focal, config.gyro.distortion)
         self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
         self.fps = fps
         self._stabilizer: Stabilizer | None = None

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .gyrolog import GyroLog
+from .lens import Lens
 from .timing import SensorTiming
 
 __all__ = ["RotatingFrame", "simulate_rotation"]
@@ -39,14 +40,8 @@ def _rays(size: tuple[int, int], focal: float,
           distortion: tuple[float, ...] | None) -> np.ndarray:
     """Undistorted ray ``(x, y)`` (z = 1) of every pixel, shape ``(h, w, 2)``."""
     w, h = size
-    k = np.array([[focal, 0, (w - 1) / 2.0], [0, focal, (h - 1) / 2.0], [0, 0, 1.0]])
     gx, gy = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    pts = np.ascontiguousarray(np.stack([gx, gy], axis=-1)).reshape(-1, 1, 2)
-    if distortion is None:
-        rays = cv2.undistortPoints(pts, k, None)
-    else:
-        rays = cv2.fisheye.undistortPoints(pts, k, np.asarray(distortion, dtype=np.float64))
-    return rays.reshape(h, w, 2)
+    return Lens(focal, distortion).undistort(np.stack([gx, gy], axis=-1), (h, w))
 
 
 def simulate_rotation(scene: np.ndarray, rate: Callable[[np.ndarray], np.ndarray],

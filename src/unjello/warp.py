@@ -22,12 +22,12 @@ scanline move together (:func:`~unjello.trajectory.scanline_displacement`). Two 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Literal
 
 import cv2
 import numpy as np
 
+from .lens import Lens
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
 
@@ -520,13 +520,13 @@ class PictureWarper:
         Its scan direction turns the planes.
     warp : {'remap', 'splat'}
     fill : {'nearest', 'black'}
-    undistort : (float, tuple of 4 float), optional
-        A fisheye lens (focal length in pixels of the first plane, ``k1 .. k4``) whose
-        curvature is then taken out of every corrected plane (:func:`undistort_maps`).
+    undistort : Lens, optional
+        A fisheye lens (its focal length in pixels of the first plane) whose curvature is
+        then taken out of every corrected plane (:meth:`~unjello.lens.Lens.undistortion_maps`).
     """
 
     def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest",
-                 undistort: tuple[float, tuple[float, ...]] | None = None) -> None:
+                 undistort: Lens | None = None) -> None:
         self.direction = timing.direction
         self.warp, self.fill = warp, fill
         self.undistort = undistort
@@ -601,8 +601,7 @@ class PictureWarper:
         """
         assert self.undistort is not None
         if (ph, pw) not in self._lens_maps:
-            focal, k = self.undistort
-            self._lens_maps[(ph, pw)] = undistort_maps((ph, pw), focal * scale, k)
+            self._lens_maps[(ph, pw)] = self.undistort.scaled(scale).undistortion_maps((ph, pw))
         return self._lens_maps[(ph, pw)]
 
     def _buffer(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
@@ -623,25 +622,6 @@ def compose_maps(first: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, n
     mx, my = (cv2.remap(m, then[0], then[1], cv2.INTER_LINEAR,
                         borderMode=cv2.BORDER_REPLICATE) for m in first)
     return mx, my
-
-
-def undistort_maps(size: tuple[int, int], focal: float, k: Sequence[float]
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Backward maps from a pinhole picture to the fisheye picture it is taken from.
-
-    Output pixel ``o`` of an ``h x w`` picture with focal length ``focal`` and its centre
-    in the middle is read at ``distort(K^-1 o)`` (OpenCV's fisheye model, ``k1 .. k4``).
-    A fisheye sees more than the pinhole of its focal length, so every output pixel has
-    a source; the edge is repeated where one would not (the planes may be chroma).
-    """
-    h, w = size
-    cam = np.array([[focal, 0, (w - 1) / 2.0], [0, focal, (h - 1) / 2.0], [0, 0, 1.0]])
-    gx, gy = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    rays = np.stack([(gx - cam[0, 2]) / focal, (gy - cam[1, 2]) / focal], axis=-1)
-    src = cv2.fisheye.distortPoints(np.ascontiguousarray(rays).reshape(-1, 1, 2), cam,
-                                    np.asarray(k, dtype=np.float64))
-    src = src.reshape(h, w, 2).astype(np.float32)
-    return np.ascontiguousarray(src[..., 0]), np.ascontiguousarray(src[..., 1])
 
 
 def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:

@@ -39,6 +39,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError, SettingsError
 from ..gyrolog import GyroConfig, GyroLog, _axes_spec, axes_matrix
+from ..lens import Lens
 from ..timing import SensorTiming
 from ..trajectory import FIELD_STEP, FrameMotion
 from .flow import landing, optical_flow, row_flows
@@ -291,25 +292,19 @@ def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: 
     Theta(t_from))``; through a fisheye lens (``cal.distortion``) the rotation acts on the
     undistorted rays, ``distort(R undistort(p))``. Returns ``(len(y), len(x), 2)``.
     """
-    h, w = size
-    f = cal.focal
-    k = np.array([[f, 0, (w - 1) / 2.0], [0, f, (h - 1) / 2.0], [0, 0, 1.0]])
+    lens = Lens(cal.focal, cal.distortion)
+    k = lens.matrix(size)
     phi = (log.theta(t_to) - log.theta(t_from)) @ cal.axes.T
     rot = Rotation.from_rotvec(phi).as_matrix()  # (rows, 3, 3)
     pts = np.stack(np.broadcast_arrays(x[None, :], y[:, None], np.ones(1)), axis=-1)
     if cal.distortion is None:
         q = pts @ (k @ rot @ np.linalg.inv(k)).transpose(0, 2, 1)
         return q[..., :2] / q[..., 2:3]
-    coef = np.asarray(cal.distortion, dtype=np.float64)
-    # (OpenCV reads the buffer: a strided view would be read as if it were contiguous)
-    rays = cv2.fisheye.undistortPoints(np.ascontiguousarray(pts[..., :2]).reshape(-1, 1, 2),
-                                       k, coef)
-    rays = np.concatenate([rays.reshape(*pts.shape[:2], 2), np.ones((*pts.shape[:2], 1))],
-                          axis=-1)
+    rays = lens.undistort(pts[..., :2], size)
+    rays = np.concatenate([rays, np.ones((*pts.shape[:2], 1))], axis=-1)
     q = rays @ rot.transpose(0, 2, 1)
     q = q[..., :2] / np.maximum(q[..., 2:3], 1e-6)  # (a ray turned behind: far off anyway)
-    out = cv2.fisheye.distortPoints(np.ascontiguousarray(q).reshape(-1, 1, 2), k, coef)
-    return out.reshape(*pts.shape[:2], 2)
+    return lens.distort(q, size)
 
 
 def gyro_field(log: GyroLog, cal: GyroCalibration, timing: SensorTiming, start: float,
