@@ -142,8 +142,8 @@ def test_a_cycle_would_be_found(monkeypatch):
 
 
 def test_modules_stay_one_job_sized():
-    """The streaming module stays a driver; no module grows past 700 lines (two jobs)."""
+    """The streaming module stays a driver; no module grows past 600 lines (two jobs)."""
     sizes = {p.relative_to(SRC).as_posix(): len(p.read_text().splitlines())
              for p in SRC.rglob("*.py")}
     assert sizes["pipeline.py"] <= 500
-    assert not {k: v for k, v in sizes.items() if v > 700}
+    assert not {k: v for k, v in sizes.items() if v > 600}

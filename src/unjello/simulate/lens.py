@@ -20,9 +20,9 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .gyrolog import GyroLog
-from .lens import Lens
-from .timing import SensorTiming
+from ..gyrolog import GyroLog
+from ..lens import Lens
+from ..timing import SensorTiming
 
 __all__ = ["RotatingFrame", "simulate_rotation"]
 

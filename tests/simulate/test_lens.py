@@ -14,10 +14,10 @@ from unjello.io.frames import write_image
 from unjello.io.sidecars import write_gyro
 from unjello.metrics import psnr
 from unjello.pipeline import correct_frames
-from unjello.simulate_lens import simulate_rotation
+from unjello.simulate.lens import simulate_rotation
 from unjello.timing import SensorTiming
 
-from .runner import clean_failure, run
+from ..runner import clean_failure, run
 
 LENS = (0.06, 0.03, -0.005, 0.002)  # the camera database's HERO5 Black 16:9 median
 FOCAL = 110.0  # px at 240 px wide: about 120 degrees across

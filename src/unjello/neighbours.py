@@ -1,0 +1,115 @@
+"""What a frame does not see, taken from its neighbours.
+
+During fast motion the reference time shows content that the frame's own scanlines never
+saw (its edges): the backward maps point outside the frame there. A neighbouring frame
+often saw it; the frame's flow to that neighbour (extended past the edge) says where
+(:func:`neighbour_sources`), and :func:`fill_from_neighbours` samples it there, instead of
+repeating the edge. Used by :class:`unjello.warp.PictureWarper`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ["neighbour_sources", "fill_from_neighbours"]
+
+
+def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear samples of ``image`` at the points ``(x, y)`` (1-D arrays)."""
+    n = x.size
+    cols = 1024
+    rows = max(1, -(-n // cols))
+    mx = np.zeros(rows * cols, np.float32)
+    my = np.zeros(rows * cols, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(image, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(rows * cols, *image.shape[2:])[:n]
+
+
+def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
+                      coarse: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Where to take the output pixels whose source lies outside the frame.
+
+    During fast motion the reference time shows scene content that the frame's own
+    scanlines never saw (its edges). A neighbouring frame often did: the source point
+    ``s`` (outside the frame) is followed there by the frame's flow, extended past the
+    edge as the flow of the nearest pixel, and sampled where it lands inside.
+
+    Parameters
+    ----------
+    maps : tuple of ndarray of shape (h, w)
+        The plane's backward maps (plane pixels).
+    flows : list of ndarray
+        Flow from this frame to each neighbour, (hf, wf, 2) in pixels of that (hf, wf)
+        grid; a pixel goes to the first neighbour that saw it.
+    coarse : tuple of ndarray, optional
+        The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
+        only pixels near a coarse sample that leaves the frame can leave it, so the
+        full-resolution test is limited to those.
+
+    Returns
+    -------
+    list of (k, ys, xs, nx, ny)
+        Output pixels ``(ys, xs)`` to take from neighbour ``k`` at ``(nx, ny)``.
+    """
+    mx, my = maps
+    h, w = mx.shape
+    test = coarse if coarse is not None else maps
+    th, tw = test[0].shape
+    # A coarse sample's pixels reach up to half a sample beyond it (:func:`resize_maps`
+    # carries the displacement to the frame's edge): only samples at least half a sample
+    # inside are surely inside.
+    lo, hi = (-0.5, 0.5) if coarse is None else (0.0, 1.0)
+    inside = cv2.bitwise_and(cv2.inRange(test[0], lo, tw - hi),
+                             cv2.inRange(test[1], lo, th - hi))
+    if cv2.countNonZero(inside) == th * tw:
+        return []
+    outside = cv2.bitwise_not(inside)
+    if coarse is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
+        outside = cv2.resize(cv2.dilate(outside, np.ones((3, 3), np.uint8)), (w, h),
+                             interpolation=cv2.INTER_NEAREST)
+    pts = cv2.findNonZero(outside).reshape(-1, 2)
+    xs, ys = pts[:, 0], pts[:, 1]
+    sx, sy = mx[ys, xs], my[ys, xs]
+    if coarse is not None:
+        out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
+        xs, ys, sx, sy = xs[out], ys[out], sx[out], sy[out]
+    parts = []
+    for k, flow in enumerate(flows):
+        if not ys.size:
+            break
+        hf, wf = flow.shape[:2]
+        f = _sample(flow, (sx + 0.5) * (wf / w) - 0.5, (sy + 0.5) * (hf / h) - 0.5)
+        nx = sx + f[:, 0] * (w / wf)
+        ny = sy + f[:, 1] * (h / hf)
+        ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+        parts.append((k, ys[ok], xs[ok], nx[ok], ny[ok]))
+        ys, xs, sx, sy = ys[~ok], xs[~ok], sx[~ok], sy[~ok]
+    return parts
+
+
+def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
+                         ) -> np.ndarray:
+    """Fill ``out`` in place from neighbouring planes, as :func:`neighbour_sources` found.
+
+    Parameters
+    ----------
+    out : ndarray of shape (h, w[, c])
+        The warped plane.
+    parts : list
+        :func:`neighbour_sources` of its maps.
+    planes : list of ndarray
+        The neighbours' planes of the same size (top-bottom), in the order of the flows.
+
+    Returns
+    -------
+    ndarray
+        ``out``.
+    """
+    for k, ys, xs, nx, ny in parts:
+        if ys.size:
+            out[ys, xs] = _sample(planes[k], nx, ny)
+    return out
