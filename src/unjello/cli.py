@@ -270,8 +270,7 @@ def preview(input: Path, preset: str | None, port: int, no_browser: bool, max_fr
 
     import uvicorn
 
-    from .preview import PreviewClip
-    from .webapp import create_app
+    from .preview import PreviewClip, create_app
 
     config = _config(preset, options)
     with socket.socket() as probe:  # one clear line, before loading the clip

@@ -3,7 +3,7 @@
 Routes (every query takes the settings ``method``, ``readout``, ``direction``,
 ``reference``, ``camera_only``; those not given are the clip's starting ones):
 
-- ``GET /`` -- the page (``data/preview.html``);
+- ``GET /`` -- the page (``preview/page.html``);
 - ``GET /api/info`` -- the clip: frames, size, rate, starting settings, where the readout
   came from;
 - ``GET /api/frame/{n}.png?view=input|corrected`` -- frame ``n`` as read or corrected;
@@ -29,16 +29,16 @@ from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Route
 
-from .errors import UnjelloError
-from .exports import plot_trajectory
-from .preview import PreviewClip, PreviewSettings, encode_png
+from ..errors import UnjelloError
+from ..exports import plot_trajectory
+from .clip import PreviewClip, PreviewSettings, encode_png
 
 __all__ = ["create_app"]
 
 
 def create_app(clip: PreviewClip) -> Starlette:
     """Return the web app that previews ``clip``."""
-    page = resources.files("unjello").joinpath("data/preview.html").read_text("utf-8")
+    page = resources.files("unjello.preview").joinpath("page.html").read_text("utf-8")
 
     def settings(request: Request) -> PreviewSettings:
         return PreviewSettings.from_query(request.query_params, clip.initial)

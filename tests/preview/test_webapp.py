@@ -16,12 +16,11 @@ import pytest
 import uvicorn
 
 from unjello.io.frames import read_image, write_image
-from unjello.preview import PreviewClip, PreviewSettings
+from unjello.preview import PreviewClip, PreviewSettings, create_app
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
-from unjello.webapp import create_app
 
-from .runner import clean_failure, run
+from ..runner import clean_failure, run
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 DRIVER = shutil.which("chromedriver")

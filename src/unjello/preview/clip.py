@@ -32,14 +32,14 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
-from .clip import resolve_clip
-from .config import CorrectionConfig
-from .errors import InputError, SettingsError
-from .io.frames import read_image, write_image
-from .io.source import FrameSource, read_frames
-from .pipeline import Corrector
-from .timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
-from .trajectory import FrameMotion, Trajectory
+from ..clip import resolve_clip
+from ..config import CorrectionConfig
+from ..errors import InputError, SettingsError
+from ..io.frames import read_image, write_image
+from ..io.source import FrameSource, read_frames
+from ..pipeline import Corrector
+from ..timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
+from ..trajectory import FrameMotion, Trajectory
 
 __all__ = ["PreviewSettings", "PreviewClip", "PREVIEW_METHODS", "encode_png"]
 
