@@ -36,7 +36,6 @@ still first frame is assumed: every frame is corrected to its own reference time
 
 from __future__ import annotations
 
-import dataclasses
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
@@ -45,13 +44,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..errors import SettingsError
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
+from .dense_config import DenseConfig
 from .field import advected_velocity, fill_unreliable, smooth_field, snap_to_global
 from .flow import (
-    FlowSettings,
     flow_pair,
     half_row_flows,
     landing,
@@ -68,105 +66,6 @@ __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 #: reported: the real spinners clip's torn frames show 0.2-0.6 %, the research pairs at
 #: most 0.15 %, the Carla town sequence 0.03 % (``docs/measurements.md``).
 FOLD_WARNING = 0.002
-
-@dataclass(frozen=True)
-class DenseConfig:
-    """Settings of the dense method (measurements behind each default: ``docs/tuning.md``).
-
-    Parameters
-    ----------
-    flow_preset : {'ultrafast', 'fast', 'medium'}
-        DIS optical flow preset.
-    work_width : int
-        Motion is estimated on frames downscaled to at most this width (0: full size);
-        the per-pixel field is returned at that resolution, in full-frame pixels.
-    grid : int
-        Camera trajectory samples per readout time.
-    smoothness : float
-        Weight of the second-difference penalty on the camera trajectory.
-    pair_smoothness : float
-        The weight used instead, when larger, where a frame's window holds a single frame
-        pair: the camera's acceleration and a velocity varying with the row then explain
-        the same flows, and only the penalty decides.
-    window : int
-        Frame pairs after a frame used to solve its camera trajectory (the look-ahead).
-    history : int
-        Frame pairs before a frame used too.
-    consistency : float
-        Forward-backward flow disagreement (px) above which a pixel is unreliable.
-    finest_scale : int, optional
-        DIS finest pyramid level (0 = full resolution). Default: the preset's, except
-        that ``medium`` works at full resolution on copies up to 480 px wide.
-    refinement : int, optional
-        Variational refinement iterations of the ``medium`` preset at each pyramid level
-        (``None``: the preset's 5).
-    fill_sigma : float
-        Where the flow is unreliable, the residual motion is the Gaussian-weighted
-        average (this sigma, px) of the reliable residuals around it.
-    vibration : {'auto', 'on', 'off'}
-        Vibration near the frame rate (drone jello): ``on`` uses :data:`VIBRATION`
-        throughout; ``auto`` looks at the first ``probe`` frame pairs and switches to it
-        when their row flows wobble (:func:`~unjello.motion.vibration.detect_vibration`).
-    probe : int
-        Frame pairs with contrast looked at before the first frame is emitted, to decide
-        (waiting at most twice this many pairs).
-    sinusoids : int
-        Sinusoids of free frequency added to the camera trajectory, outside its
-        smoothness penalty (:func:`~unjello.motion.vibration.sinusoid_pursuit`).
-    advect : bool
-        Where a frame has one neighbour (the ends of a clip, a frame pair), carry each
-        pixel's velocity through the smooth (projective) part of the flow field on its
-        way to the reference time, instead of a constant velocity per pixel.
-    edge_refine : bool
-        Near motion boundaries, give each pixel the flow of the side it matches
-        (:func:`~unjello.motion.flow.refine_motion_edges`; per-pixel mode only).
-    snap_window : int
-        Pixels whose neighbourhood the frame's global (projective) motion explains as well
-        as their own flow take the global motion
-        (:func:`~unjello.motion.field.snap_to_global`; this patch side in px, 0: off).
-    per_pixel : bool
-        Model each pixel's residual motion (parallax, moving objects) on top of the
-        camera trajectory. False: the camera trajectory alone, one displacement per
-        scanline (faster).
-    """
-
-    flow_preset: str = "medium"
-    work_width: int = 480
-    grid: int = 64
-    smoothness: float = 3e-3
-    pair_smoothness: float = 3e-2
-    window: int = 2
-    history: int = 2
-    consistency: float = 3.0
-    finest_scale: int | None = None
-    refinement: int | None = 1
-    fill_sigma: float = 12.0
-    vibration: str = "auto"
-    probe: int = 8
-    sinusoids: int = 0
-    advect: bool = True
-    edge_refine: bool = False
-    snap_window: int = 9
-    per_pixel: bool = True
-
-    def __post_init__(self) -> None:
-        if self.vibration not in ("auto", "on", "off"):
-            raise SettingsError(f"vibration must be auto, on or off, not {self.vibration!r}")
-        if self.work_width < 0:
-            raise SettingsError(f"work width must be 0 (full size) or more, got "
-                                f"{self.work_width}")
-        self.flow  # checks the preset  # noqa: B018
-
-    @property
-    def flow(self) -> FlowSettings:
-        """The flow settings of :func:`~unjello.motion.flow.flow_pair`."""
-        return FlowSettings(self.flow_preset, self.finest_scale, self.refinement,
-                            self.consistency, self.edge_refine)
-
-    def vibrating(self) -> DenseConfig:
-        """Return these settings with :data:`VIBRATION` applied (``vibration='on'``)."""
-        return dataclasses.replace(self, **VIBRATION)
-
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -451,27 +350,13 @@ class DenseMethod:
                                to_full_rows(velocity), ok=True, note=self._note)
         field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
                                                          c_at_pixels)
-        field = cam_disp[:, None, :] - field_resid
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        folds, kept = fold_share(field), 0.0
-        regions = np.zeros((h, w), bool)
-        if folds > FOLD_WARNING:
-            whole, share, after, regions = keep_whole(field, cam_disp, fallback)
-            if after < folds:  # never worse by its own measure
-                field, folds, kept = whole, after, share
-                note = "; ".join(n for n in (note, f"{100 * kept:.0f}% given the motion around "
-                                             "it (the per-pixel motion folded or tore)")
-                                 if n)
-        regions |= failed_blobs(fallback & ~entering)
-        field, folds, spun, said = self._turn_back_spinning(
-            fr, field, folds, regions, float(t_ref), c_at, u_rows.mean(axis=0))
-        note = "; ".join(n for n in (note, said) if n)
-        if folds > FOLD_WARNING:
-            note = "; ".join(n for n in (note, f"the correction folds or tears "
-                                         f"{100 * folds:.1f}% of the picture") if n)
-        note = "; ".join(n for n in (self._note, note) if n)
+        field, folds, kept, spun, said = self._safe_field(
+            fr, cam_disp[:, None, :] - field_resid, cam_disp, fallback, entering, float(t_ref),
+            c_at, u_rows.mean(axis=0))
+        note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
         field *= scale
@@ -480,6 +365,36 @@ class DenseMethod:
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
                            spun=spun, field=field, neighbours=neighbours)
+
+    def _safe_field(self, fr: _Frame, field: np.ndarray, cam_disp: np.ndarray,
+                    fallback: np.ndarray, entering: np.ndarray, t_ref: float,
+                    c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
+                    ) -> tuple[np.ndarray, float, float, float, str]:
+        """Make the per-pixel field safe: no fold or tear it can avoid.
+
+        Where the field folds in blobs, the region gets the motion around it
+        (:func:`~unjello.motion.safety.keep_whole`, if that folds less); such regions and
+        the objects whose flow failed (:func:`~unjello.motion.safety.failed_blobs`) are
+        tried as spinning objects (:meth:`_turn_back_spinning`). Returns the field, its
+        folds, the share kept whole, the share spun and what to say.
+        """
+        h, w = field.shape[:2]
+        notes = []
+        folds, kept = fold_share(field), 0.0
+        regions = np.zeros((h, w), bool)
+        if folds > FOLD_WARNING:
+            whole, share, after, regions = keep_whole(field, cam_disp, fallback)
+            if after < folds:  # never worse by its own measure
+                field, folds, kept = whole, after, share
+                notes.append(f"{100 * kept:.0f}% given the motion around it (the per-pixel "
+                             "motion folded or tore)")
+        regions |= failed_blobs(fallback & ~entering)
+        field, folds, spun, said = self._turn_back_spinning(
+            fr, field, folds, regions, t_ref, c_at, u_mean)
+        notes.append(said)
+        if folds > FOLD_WARNING:
+            notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
+        return field, folds, kept, spun, "; ".join(n for n in notes if n)
 
     def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
                             regions: np.ndarray, t_ref: float,
