@@ -424,8 +424,11 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "core).", kind="int"),
     Option("codec", "encode.codec", "Encoder of the output video."),
     Option("crf", "encode.crf", "Encoder quality (0-51, lower is better).", kind="int"),
-    Option("x264_preset", "encode.preset", "Encoder speed/size preset (ultrafast ... "
+    Option("x264_preset", "encode.preset", "libx264/libx265 speed/size preset (ultrafast ... "
            "veryslow)."),
+    Option("profile", "encode.profile", "ProRes (prores_ks: proxy, lt, standard, hq, 4444, "
+           "4444xq; default hq) or DNxHR (dnxhd: dnxhr_lb, dnxhr_sq, dnxhr_hq, dnxhr_hqx, "
+           "dnxhr_444; default dnxhr_hq) profile."),
 )}
 
 _TIMING = ("readout", "direction", "reference", "fps", "camera", "lens_profile")

@@ -25,6 +25,7 @@ from .config import CorrectionConfig
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
 from .gyrolog import GyroLog
+from .io.codecs import check_output
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
@@ -372,6 +373,8 @@ def correct_video(
     if not src_p.exists():
         raise InputError(f"{src_p}: no such file or folder")
     check_paths(src_p, dst_p, overwrite)
+    if not src_p.is_dir():  # a video out: the codec, its profile and the container agree
+        check_output(config.encode.codec, config.encode.profile, dst_p)
     side = SideOutputs(motion_out, stmap, preview, config.encode)
     for extra in side.paths:
         check_new(extra, overwrite)

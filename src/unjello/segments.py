@@ -37,6 +37,7 @@ from .batch import executor
 from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
 from .errors import InputError, SettingsError, UnjelloError
+from .io.codecs import check_output
 from .io.remux import FrameIndex, frame_index, join_segments, read_stretch
 from .io.sink import check_paths, remove, replace, temp_path
 from .io.source import FrameSource
@@ -256,6 +257,7 @@ def correct_segmented(
         raise InputError(f"{src_p}: segments need a video file" if src_p.exists()
                          else f"{src_p}: no such file or folder")
     check_paths(src_p, dst_p, overwrite)
+    check_output(config.encode.codec, config.encode.profile, dst_p)
     if config.method == "gyro":
         raise SettingsError("segments take the dense or the paper method; a gyro's "
                             "calibration is made over the whole clip: correct it in one run")

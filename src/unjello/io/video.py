@@ -21,6 +21,7 @@ import av
 import numpy as np
 
 from ..errors import InputError, OutputError, SettingsError
+from .codecs import encoder_options, output_format
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
            "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags"]
@@ -52,11 +53,17 @@ class VideoInfo:
 
 @dataclass(frozen=True)
 class EncodeOptions:
-    """Encoder settings of the output video (libx264, CRF 18 by default)."""
+    """Encoder settings of the output video (libx264, CRF 18 by default).
+
+    ``crf`` and ``preset`` are libx264's and libx265's; ``profile`` is ProRes's
+    (``proxy`` ... ``4444xq``) or DNxHR's (``dnxhr_lb`` ... ``dnxhr_444``;
+    :mod:`unjello.io.codecs`).
+    """
 
     codec: str = "libx264"
     crf: int = 18
     preset: str = "medium"
+    profile: str | None = None
 
     def __post_init__(self) -> None:
         if not 0 <= self.crf <= 51:
@@ -316,15 +323,15 @@ class VideoWriter:
         except (av.FFmpegError, ValueError, AssertionError) as exc:
             self._c.close()
             raise OutputError(f"unknown or unavailable codec {options.codec!r} ({exc})") from None
+        self._out_fmt = output_format(options.codec, options.profile, pix_fmt)
+        self._codec = options.codec
         vs.width, vs.height = size
-        vs.pix_fmt = pix_fmt
+        vs.pix_fmt = self._out_fmt
         vs.time_base = self._time_base
         vs.codec_context.time_base = self._time_base
         vs.thread_type = "AUTO"
-        opts: dict[str, str] = {"preset": options.preset}
-        if options.codec in ("libx264", "libx265"):
-            opts["crf"] = str(options.crf)
-        vs.options = opts  # type: ignore[assignment]
+        vs.options = encoder_options(options.codec, options.crf, options.preset,
+                                     options.profile)  # type: ignore[assignment]
         for k, v in (color or {}).items():
             if v is not None:
                 try:
@@ -356,18 +363,32 @@ class VideoWriter:
         self._encode(frame.reformat(format=self._fmt), self.frames_written if pts is None else pts)
 
     def _encode(self, frame: av.VideoFrame, pts: int | None) -> None:
+        if frame.format.name != self._out_fmt:  # the codec's own format (ProRes: 10-bit)
+            frame = frame.reformat(format=self._out_fmt)
         frame.pts = pts
         frame.time_base = self._time_base
-        for packet in self._vs.encode(frame):
-            self._c.mux(packet)
+        try:
+            for packet in self._vs.encode(frame):
+                self._c.mux(packet)
+        except av.FFmpegError as exc:
+            raise self._refused(exc) from None
         self.frames_written += 1
+
+    def _refused(self, exc: av.FFmpegError) -> OutputError:
+        """Say that the encoder could not be opened or fed (a size or format it refuses)."""
+        vs = self._vs
+        return OutputError(f"the {self._codec} encoder refused {vs.width}x{vs.height} "
+                           f"{self._out_fmt} ({exc.__class__.__name__}: {exc.strerror})")
 
     def copy_audio(self, packet: av.Packet) -> None:
         """Mux an audio packet from the reader unchanged."""
         out = self._audio.get(packet.stream.index)
         if out is not None:
             packet.stream = out
-            self._c.mux(packet)
+            try:  # the first packet muxed opens every stream's encoder
+                self._c.mux(packet)
+            except av.FFmpegError as exc:
+                raise self._refused(exc) from None
 
     def close(self) -> None:
         """Flush the encoder and close the file."""
