@@ -8,9 +8,12 @@ output.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
+import os
 import re
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -134,6 +137,10 @@ class _Group(click.Group):
         except UnjelloError as exc:
             click.echo(f"unjello: error: {_flagify(str(exc))}", err=True)
             ctx.exit(2)
+        except OSError as exc:  # (Click would end a broken pipe silently)
+            if exc.errno != errno.EPIPE:
+                raise
+            _reader_gone()
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -145,7 +152,7 @@ def cli() -> None:
 @cli.command()
 @click.argument("input", type=click.Path(path_type=Path))
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
-              help="Output video, or folder for a folder input.")
+              help="Output video, folder (for a folder), or - for stdout (--format).")
 @_config_options(per_clip=True)
 @click.option("--motion-out", type=click.Path(path_type=Path),
               help="Write the estimated motion as JSON (schema unjello.trajectory v1).")
@@ -173,14 +180,24 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             motion_in: Path | None, preview: Path | None, stmap: Path | None, as_json: bool,
             segments: str | None, executor_kind: str | None, address: str | None,
             workers: int | None, overwrite: bool, quiet: bool, **options: Any) -> None:
-    """Correct INPUT (a video, or a folder of frames) into OUTPUT."""
-    import time
-
+    """Correct INPUT (a video, a folder of frames, or - for a stream on stdin) into OUTPUT."""
     from .pipeline import correct_video
 
     config = _config(preset, options)
     messages: list[str] = []
     runner: Callable[..., Any] = correct_video
+    if str(output) == "-":  # standard output: the video goes there, all else to stderr
+        if sys.stdout.isatty():
+            raise SettingsError("standard output is a terminal: pipe it into a program "
+                                "(| ffmpeg -i - ...) or give -o a file")
+        if as_json:
+            raise SettingsError("--json prints to standard output, which carries the video "
+                                "with -o -")
+        ctx = click.get_current_context()
+        if (ctx.get_parameter_source("codec") not in (ParameterSource.COMMANDLINE,
+                                                      ParameterSource.ENVIRONMENT)
+                and config.encode.codec == "libx264"):
+            config = config.with_options(codec="rawvideo")  # uncompressed unless asked
     if segments is not None or executor_kind is not None or address is not None:
         if segments is not None and segments != "auto" and not (
                 segments.isdigit() and int(segments) >= 1):
@@ -197,14 +214,10 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
         def runner(src: Path, dst: Path, cfg: CorrectionConfig, **kw: Any) -> Any:
             from .segments import correct_segmented
 
-            traj, report = correct_segmented(
+            return correct_segmented(
                 src, dst, cfg, segments=segments or "auto", kind=executor_kind or "local",
                 address=address, workers=workers, overwrite=kw["overwrite"], log=kw["log"],
-                on_timing=kw["on_timing"], progress=kw["progress"])
-            kept = sum(s["status"] == "kept" for s in report["segments"])
-            kw["log"](f"{len(report['segments'])} segment(s) on {executor_kind or 'local'}"
-                      + (f", {kept} kept from an earlier run" if kept else ""))
-            return traj
+                on_timing=kw["on_timing"], progress=kw["progress"])[0]
 
     def log(m: str) -> None:
         m = _flagify(m)
@@ -505,48 +518,28 @@ def plot(motion: Path, output: Path, overwrite: bool) -> None:
 @click.option("--json", "as_json", is_flag=True)
 def probe(input: Path, as_json: bool) -> None:
     """Describe a video: size, rate, rotation, audio, format, and the readout and lens used."""
-    from .clip import resolve_clip
-    from .io.source import FrameSource
-    from .io.video import probe as run_probe
-    from .io.video import variable_rate
+    from .clip import describe
 
-    info = run_probe(input)
-    vfr = variable_rate(input)
-    # What `correct` would use: the same resolution of the clip's settings (lens included).
-    with FrameSource(input) as source:
-        config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), input, source)
-    said = resolved.sources["readout"]
-    stated = said != "default"
-    ms = resolved.timing.readout / resolved.fps * 1e3
-    lens = ({"focal": round(config.gyro.focal, 2), "distortion": list(config.gyro.distortion)}
-            if config.gyro.focal is not None and config.gyro.distortion is not None else None)
-    doc = {"path": str(input), "width": info.width, "height": info.height,
-           "fps": round(info.fps, 4), "variable_frame_rate": vfr, "frames": info.frames,
-           "duration": round(info.duration, 3), "codec": info.codec, "pix_fmt": info.pix_fmt,
-           "bit_depth": info.bit_depth, "rotation": info.rotation,
-           "audio_streams": info.audio_streams,
-           "readout": round(resolved.timing.readout, 6) if stated else None,
-           "readout_ms": round(ms, 4) if stated else None,
-           "readout_source": said if stated else None,
-           "direction": resolved.timing.direction, "lens": lens,
-           "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}
+    doc = describe(input)
     if as_json:
         click.echo(json.dumps(doc))
         return
-    click.echo(f"{input}: {info.width}x{info.height} {info.codec} {info.pix_fmt} "
-               f"({info.bit_depth}-bit), {info.fps:.3f} fps{' (variable)' if vfr else ''}, "
-               f"{info.frames} frames, {info.duration:.2f} s")
-    click.echo(f"rotation {info.rotation} deg, {info.audio_streams} audio stream(s)")
-    if stated:
-        click.echo(f"readout: {ms:.4g} ms ({resolved.timing.readout:.4g} of the frame "
-                   f"interval, {resolved.timing.direction}), from the {said}")
+    d = doc
+    click.echo(f"{input}: {d['width']}x{d['height']} {d['codec']} {d['pix_fmt']} "
+               f"({d['bit_depth']}-bit), {d['fps']:.3f} fps"
+               f"{' (variable)' if d['variable_frame_rate'] else ''}, {d['frames']} frames, "
+               f"{d['duration']:.2f} s")
+    click.echo(f"rotation {d['rotation']} deg, {d['audio_streams']} audio stream(s)")
+    if d["readout"] is not None:
+        click.echo(f"readout: {d['readout_ms']:.4g} ms ({d['readout']:.4g} of the frame "
+                   f"interval, {d['direction']}), from the {d['readout_source']}")
     else:
         click.echo("readout: not stated by the file, a sidecar or the camera database; "
                    "measure it (unjello readout), estimate it (unjello estimate-readout) or "
                    "pass --readout")
-    if lens:
-        click.echo(f"lens: focal {lens['focal']:.0f} px, fisheye k "
-                   + ", ".join(f"{v:.3g}" for v in lens["distortion"]))
+    if d["lens"]:
+        click.echo(f"lens: focal {d['lens']['focal']:.0f} px, fisheye k "
+                   + ", ".join(f"{v:.3g}" for v in d["lens"]["distortion"]))
 
 
 @cli.command()
@@ -580,6 +573,14 @@ def cameras(search: tuple[str, ...], show_all: bool, as_json: bool) -> None:
     Console().print(table)
 
 
+def _reader_gone() -> None:
+    """Say that standard output's reader stopped early (``| head``); exit 1, quietly."""
+    # Python would complain again flushing the closed pipe at exit.
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    click.echo("unjello: the program reading the output stopped (broken pipe)", err=True)
+    sys.exit(1)
+
+
 def main(argv: list[str] | None = None) -> Any:
     """Entry point: run the CLI; Ctrl-C is one line and exit code 130."""
     try:
@@ -590,6 +591,7 @@ def main(argv: list[str] | None = None) -> Any:
     except KeyboardInterrupt:
         click.echo("interrupted; partial output removed", err=True)
         sys.exit(130)
+
     except click.exceptions.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)

@@ -22,11 +22,12 @@ from .gyrolog import GyroLog
 from .io.sidecars import LensProfile, gyro_source, read_lens_profile, stated_readout
 from .io.source import FrameSource
 from .io.telemetry import camera_of
+from .io.video import is_pipe, probe, variable_rate
 from .readout import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
 from .trajectory import Trajectory
 
-__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming"]
+__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming", "describe"]
 
 
 
@@ -141,7 +142,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
             if stated is None:
                 messages.append(f"the lens profile {profile.name} states no "
                                 "frame_readout_time")
-        stated = stated or stated_readout(path)
+        stated = stated or (None if is_pipe(path) else stated_readout(path))
         found = None if stated is not None else _database(config, identified, size, fps)
         est = None
         if (found is not None and not found.same_aspect and request == "auto"
@@ -218,7 +219,14 @@ def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
         Why the camera's own gyro cannot describe the picture ('' if it can).
     """
     gyro = config.method == "gyro" and given is None
-    identified = (camera_of(src_p) if given is None and not config.camera
+    pipe = is_pipe(src_p)
+    if pipe and gyro:
+        raise SettingsError("the gyro method reads its log beside the clip or in its file: "
+                            "give it a file, not standard input")
+    if pipe and config.readout == "auto":
+        raise SettingsError("readout=auto reads the clip twice: give a file, or readout= "
+                            "when piping")
+    identified = (camera_of(src_p) if not pipe and given is None and not config.camera
                   and not config.lens_profile
                   and (config.readout in (None, "auto") or gyro or config.undistort)
                   else None)
@@ -272,3 +280,32 @@ def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, in
         g, focal=focal, distortion=coef))  # type: ignore[arg-type]
     return new, (f"lens from the {source}: focal {focal:.0f} px, fisheye k "
                  + ", ".join(f"{v:.3g}" for v in coef),)
+
+
+def describe(path: Path) -> dict[str, Any]:
+    """Describe a video as ``unjello probe`` prints it, with what ``correct`` would use.
+
+    Size, rate (and whether it varies), frames, duration, codec and format, rotation,
+    audio, colour tags; the readout (fraction, ms, where from: ``None`` when only the
+    default would be used), the scan direction and the lens (focal, fisheye k) that
+    :func:`resolve_clip` finds for it.
+    """
+    info = probe(path)
+    with FrameSource(path) as source:
+        config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), path, source)
+    said = resolved.sources["readout"]
+    stated = said != "default"
+    ms = resolved.timing.readout / resolved.fps * 1e3
+    g = config.gyro
+    lens = ({"focal": round(g.focal, 2), "distortion": list(g.distortion)}
+            if g.focal is not None and g.distortion is not None else None)
+    return {"path": str(path), "width": info.width, "height": info.height,
+            "fps": round(info.fps, 4), "variable_frame_rate": variable_rate(path),
+            "frames": info.frames, "duration": round(info.duration, 3), "codec": info.codec,
+            "pix_fmt": info.pix_fmt, "bit_depth": info.bit_depth, "rotation": info.rotation,
+            "audio_streams": info.audio_streams,
+            "readout": round(resolved.timing.readout, 6) if stated else None,
+            "readout_ms": round(ms, 4) if stated else None,
+            "readout_source": said if stated else None,
+            "direction": resolved.timing.direction, "lens": lens,
+            "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}

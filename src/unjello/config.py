@@ -422,7 +422,11 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "side pair, e.g. 0.1.", to_field=crop_request),
     Option("threads", "threads", "Threads measuring the frames' motion ahead (0: one per "
            "core).", kind="int"),
-    Option("codec", "encode.codec", "Encoder of the output video."),
+    Option("codec", "encode.codec", "Encoder of the output video (libx264; writing to "
+           "standard output, rawvideo)."),
+    Option("format", "encode.format", "Container of the output when it is standard output "
+           "(-o -): nut (pts and audio kept; default), yuv4mpegpipe (raw frames), matroska "
+           "or mpegts.", choices=("nut", "yuv4mpegpipe", "matroska", "mpegts")),
     Option("crf", "encode.crf", "Encoder quality (0-51, lower is better).", kind="int"),
     Option("x264_preset", "encode.preset", "libx264/libx265 speed/size preset (ultrafast ... "
            "veryslow)."),

@@ -29,6 +29,7 @@ from .io.codecs import check_output
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
+from .io.video import is_pipe
 from .lens import Lens
 from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
@@ -370,11 +371,13 @@ def correct_video(
         Nothing is written then; the outputs appear only when complete.
     """
     src_p, dst_p = Path(src), Path(dst)
-    if not src_p.exists():
+    if not is_pipe(src) and not src_p.exists():
         raise InputError(f"{src_p}: no such file or folder")
+    if is_pipe(dst) and config.encode.format is None:  # standard output: NUT by default
+        config = config.with_options(format="nut")
     check_paths(src_p, dst_p, overwrite)
-    if not src_p.is_dir():  # a video out: the codec, its profile and the container agree
-        check_output(config.encode.codec, config.encode.profile, dst_p)
+    if is_pipe(src) or not src_p.is_dir():  # a video out: codec, profile, container agree
+        check_output(config.encode.codec, config.encode.profile, dst_p, config.encode.format)
     side = SideOutputs(motion_out, stmap, preview, config.encode)
     for extra in side.paths:
         check_new(extra, overwrite)

@@ -335,6 +335,10 @@ def correct_segmented(
     report = {"segments": [{"index": s.index, "start": s.start, "end": s.end,
                             "status": status[s.index]} for s in plan],
               "seconds": round(time.perf_counter() - t0, 3)}
+    kept = sum(v == "kept" for v in status.values())
+    if log:
+        log(f"{len(plan)} segment(s) on {kind}" + (f", {kept} kept from an earlier run"
+                                                   if kept else ""))
     return traj, report
 
 

@@ -65,14 +65,19 @@ CODECS: dict[str, Codec] = {c.name: c for c in (
         "dnxhr_444": ("dnxhr_444", "yuv444p10le")}, "dnxhr_hq"),
     Codec("ffv1", (".mkv", ".avi", ".nut"), ("yuv420p", "yuv422p", "yuv444p", "yuv420p10le",
                                              "yuv422p10le", "yuv444p10le")),
+    # Uncompressed frames: a pipe's default (NUT or y4m), read by the next program.
+    Codec("rawvideo", (".nut", ".y4m", ".mkv", ".avi"), _X),
 )}
+
+#: The container a pipe's format stands for (its file suffix).
+FORMAT_SUFFIX = {"nut": ".nut", "yuv4mpegpipe": ".y4m", "matroska": ".mkv", "mpegts": ".ts"}
 
 
 def _codec(name: str) -> Codec | None:
     return CODECS.get(name)
 
 
-def check_output(codec: str, profile: str | None, dst: Path) -> None:
+def check_output(codec: str, profile: str | None, dst: Path, fmt: str | None = None) -> None:
     """Refuse a codec the container cannot hold, or a profile the codec does not have.
 
     Codecs this table does not know are left to FFmpeg (it says what is wrong when the
@@ -88,9 +93,12 @@ def check_output(codec: str, profile: str | None, dst: Path) -> None:
         if profile:
             raise SettingsError(f"profile= is for prores_ks and dnxhd, not {codec}")
         return
-    suffix = dst.suffix.lower()
+    suffix = FORMAT_SUFFIX.get(fmt or "", dst.suffix.lower())
+    if fmt and fmt not in FORMAT_SUFFIX:
+        raise SettingsError(f"format {fmt!r}: use one of {', '.join(FORMAT_SUFFIX)}")
     if suffix and suffix not in known.containers:
-        raise SettingsError(f"{codec} cannot be written into {suffix} (use "
+        said = f"the {fmt} format" if fmt else suffix
+        raise SettingsError(f"{codec} cannot be written into {said} (use "
                             f"{', '.join(known.containers)})")
     if profile and not known.profiles:
         raise SettingsError(f"{codec} has no profiles (profile= is for prores_ks and dnxhd)")

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import OutputError
 from .frames import write_image
 from .source import FrameSource, Picture
-from .video import VIDEO_SUFFIXES, EncodeOptions, ThreadedWriter, VideoWriter
+from .video import VIDEO_SUFFIXES, EncodeOptions, ThreadedWriter, VideoWriter, is_pipe
 
 __all__ = ["temp_path", "replace", "remove", "check_new", "check_paths", "PictureSink",
            "FrameSink"]
@@ -74,6 +74,10 @@ def check_paths(src: Path, dst: Path, overwrite: bool) -> None:
         The output is the input or lies inside the input folder, is a folder where a
         video goes, exists without ``overwrite``, or its folder is missing.
     """
+    if is_pipe(dst) or is_pipe(src):  # standard input or output: nothing to clobber
+        if is_pipe(src) and not is_pipe(dst):
+            check_new(dst, overwrite)
+        return
     if dst.resolve() == src.resolve() or (dst.exists() and os.path.samefile(src, dst)):
         raise OutputError(f"output {dst} is the input; choose another name")
     if src.is_file() and dst.is_dir():
@@ -99,7 +103,8 @@ class PictureSink:
     def __init__(self, dst: Path, source: FrameSource,
                  encode: EncodeOptions = EncodeOptions()) -> None:
         self.dst = dst
-        self._tmp = temp_path(dst)
+        self._pipe = is_pipe(dst)  # standard output: written as it goes, nothing to rename
+        self._tmp = dst if self._pipe else temp_path(dst)
         self._video: ThreadedWriter | None = None
         if source.reader is not None:
             self._video = ThreadedWriter(VideoWriter.like(self._tmp, source.reader, encode))
@@ -125,13 +130,15 @@ class PictureSink:
         """Finish and move the output into place."""
         if self._video is not None:
             self._video.close()
-        replace(self._tmp, self.dst)
+        if not self._pipe:
+            replace(self._tmp, self.dst)
 
     def abort(self) -> None:
         """Drop the partial output."""
         if self._video is not None:
             self._video.abort()
-        remove(self._tmp)
+        if not self._pipe:
+            remove(self._tmp)
 
 
 class FrameSink:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from .frames import list_frames, read_image
-from .video import VideoReader
+from .video import VideoReader, is_pipe
 
 __all__ = ["Picture", "SourceInfo", "FrameSource", "read_frames"]
 
@@ -105,10 +105,11 @@ class FrameSource:
 
     def __init__(self, path: str | os.PathLike) -> None:
         self.path = Path(path)
-        if not self.path.exists():
+        self.pipe = is_pipe(path)  # standard input: one pass, nothing read twice
+        if not self.pipe and not self.path.exists():
             raise InputError(f"{self.path}: no such file or folder")
         self.reader: VideoReader | None = None
-        if self.path.is_dir():
+        if not self.pipe and self.path.is_dir():
             self._files = list_frames(self.path)
             self._first = read_image(self._files[0])
             h, w = self._first.shape[:2]

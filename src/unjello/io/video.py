@@ -12,6 +12,7 @@ tags of the input.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -24,7 +25,18 @@ from ..errors import InputError, OutputError, SettingsError
 from .codecs import encoder_options, output_format
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
-           "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags"]
+           "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags", "PIPE",
+           "is_pipe", "PIPE_FORMATS"]
+
+#: The name of standard input (as an input) or standard output (as an output).
+PIPE = "-"
+#: Containers a pipe may carry out: NUT (pts and audio kept; the default) or raw frames.
+PIPE_FORMATS = ("nut", "yuv4mpegpipe", "matroska", "mpegts")
+
+
+def is_pipe(path: str | os.PathLike | None) -> bool:
+    """Return whether ``path`` names standard input or output (``-``)."""
+    return path is not None and str(path) == PIPE
 
 VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm", ".mts", ".m2ts")
 
@@ -57,13 +69,15 @@ class EncodeOptions:
 
     ``crf`` and ``preset`` are libx264's and libx265's; ``profile`` is ProRes's
     (``proxy`` ... ``4444xq``) or DNxHR's (``dnxhr_lb`` ... ``dnxhr_444``;
-    :mod:`unjello.io.codecs`).
+    :mod:`unjello.io.codecs`); ``format`` the container of a pipe (:data:`PIPE_FORMATS`;
+    a file's is its suffix's).
     """
 
     codec: str = "libx264"
     crf: int = 18
     preset: str = "medium"
     profile: str | None = None
+    format: str | None = None
 
     def __post_init__(self) -> None:
         if not 0 <= self.crf <= 51:
@@ -71,6 +85,13 @@ class EncodeOptions:
 
 
 def _open(path: str | os.PathLike) -> av.container.InputContainer:
+    if is_pipe(path):
+        try:
+            return av.open(sys.stdin.buffer, "r")
+        except (av.FFmpegError, ValueError) as exc:
+            raise InputError(f"standard input: not a video stream PyAV can read "
+                             f"({exc.__class__.__name__}; pipe NUT, Matroska, MPEG-TS or "
+                             "y4m)") from None
     p = Path(path)
     if not p.exists():
         raise InputError(f"{p}: no such file or folder")
@@ -104,32 +125,38 @@ def probe(path: str | os.PathLike) -> VideoInfo:
     """
     c = _open(path)
     try:
-        vs = c.streams.video[0]
-        cc = vs.codec_context
-        if cc is None or not cc.width or not cc.height:
-            raise InputError(f"{path}: its video stream cannot be decoded (damaged or "
-                             "truncated file?)")
-        rate = vs.average_rate or vs.guessed_rate or vs.base_rate or Fraction(30)
-        rotation = 0
-        frames = vs.frames
-        try:
-            for fr in c.decode(video=0):
-                rotation = int(fr.rotation or 0)
-                break
-        except av.FFmpegError:
-            pass
-        duration = float(c.duration / av.time_base) if c.duration else 0.0
-        fmt = _work_format(cc.pix_fmt)
-        return VideoInfo(
-            path=str(path), width=cc.width, height=cc.height, fps=float(rate),
-            time_base=vs.time_base or Fraction(1, 90000), frames=int(frames or 0),
-            duration=duration, pix_fmt=str(cc.pix_fmt), bit_depth=10 if "10" in fmt else 8,
-            rotation=rotation, audio_streams=len(c.streams.audio), codec=cc.name,
-            color={k: getattr(cc, k, None) for k in
-                   ("color_range", "colorspace", "color_primaries", "color_trc")},
-        )
+        return _describe(c, path, first_frame=True)
     finally:
         c.close()
+
+
+def _describe(c: av.container.InputContainer, path: str | os.PathLike, first_frame: bool
+              ) -> VideoInfo:
+    """Describe an open video; ``first_frame``: decode it for its rotation (not a pipe's)."""
+    vs = c.streams.video[0]
+    cc = vs.codec_context
+    if cc is None or not cc.width or not cc.height:
+        raise InputError(f"{path}: its video stream cannot be decoded (damaged or "
+                         "truncated file?)")
+    rate = vs.average_rate or vs.guessed_rate or vs.base_rate or Fraction(30)
+    rotation = 0
+    frames = vs.frames
+    try:
+        for fr in c.decode(video=0) if first_frame else ():
+            rotation = int(fr.rotation or 0)
+            break
+    except av.FFmpegError:
+        pass
+    duration = float(c.duration / av.time_base) if c.duration else 0.0
+    fmt = _work_format(cc.pix_fmt)
+    return VideoInfo(
+        path=str(path), width=cc.width, height=cc.height, fps=float(rate),
+        time_base=vs.time_base or Fraction(1, 90000), frames=int(frames or 0),
+        duration=duration, pix_fmt=str(cc.pix_fmt), bit_depth=10 if "10" in fmt else 8,
+        rotation=rotation, audio_streams=len(c.streams.audio), codec=cc.name,
+        color={k: getattr(cc, k, None) for k in
+               ("color_range", "colorspace", "color_primaries", "color_trc")},
+    )
 
 
 def metadata_tags(path: str | os.PathLike) -> dict[str, str]:
@@ -201,8 +228,10 @@ class VideoReader:
     """
 
     def __init__(self, path: str | os.PathLike) -> None:
-        self.info = probe(path)
+        self.info = None if is_pipe(path) else probe(path)
         self._c = _open(path)
+        if self.info is None:  # standard input: read once, described from its header
+            self.info = _describe(self._c, "standard input", first_frame=False)
         self._vs = self._c.streams.video[0]
         self._vs.thread_type = "AUTO"
         self.work_format = _work_format(self._vs.codec_context.pix_fmt)
@@ -314,9 +343,14 @@ class VideoWriter:
         rate = Fraction(fps).limit_denominator(100000)
         self._time_base = time_base or Fraction(1, 1) / rate
         try:
-            self._c = av.open(str(path), "w")
+            self._c = (av.open(sys.stdout.buffer, "w", format=options.format or "nut")
+                       if is_pipe(path) else av.open(str(path), "w", format=options.format))
         except (av.FFmpegError, ValueError) as exc:
             raise OutputError(f"{path}: cannot create output ({exc})") from None
+        self._numbered = "yuv4mpeg" in self._c.format.name
+        if self._numbered:  # raw frames: no audio, no timestamps (one a frame interval)
+            audio = ()
+            self._time_base = Fraction(1, 1) / rate
         try:
             vs = self._c.add_stream(options.codec, rate=rate)
             assert isinstance(vs, av.video.stream.VideoStream)
@@ -365,7 +399,7 @@ class VideoWriter:
     def _encode(self, frame: av.VideoFrame, pts: int | None) -> None:
         if frame.format.name != self._out_fmt:  # the codec's own format (ProRes: 10-bit)
             frame = frame.reformat(format=self._out_fmt)
-        frame.pts = pts
+        frame.pts = self.frames_written if self._numbered else pts
         frame.time_base = self._time_base
         try:
             for packet in self._vs.encode(frame):
