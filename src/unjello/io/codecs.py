@@ -132,7 +132,8 @@ def encoder_options(codec: str, crf: int, preset: str, profile: str | None) -> d
     if known is None:
         return {}
     if known.crf:
-        return {"crf": str(crf), "preset": preset}
+        quiet = {"x265-params": "log-level=error"} if codec == "libx265" else {}
+        return {"crf": str(crf), "preset": preset, **quiet}
     if known.profiles:
         return {"profile": known.profiles[profile or known.default_profile][0]}
     return {}
