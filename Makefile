@@ -18,7 +18,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto
 	$(MAKE) test-vapoursynth
 
 # VapourSynth's wheel needs CPython 3.12+: its filter is tested in a venv of its own,
@@ -31,10 +31,11 @@ test-vapoursynth:
 	  $(VS_VENV)/bin/python -m pytest -q -p no:cacheprovider tests/test_vapoursynth.py; \
 	else echo "no CPython 3.12 here: the VapourSynth tests skip"; fi
 
-# The quick loop: ruff and every test but the slow end-to-end ones (marked `slow`).
+# The quick loop: ruff and every test but the slow end-to-end ones (marked `slow`), on
+# every core (pytest-xdist).
 check: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/python -m pytest -m "not slow" -q -n auto
 
 typecheck: $(STAMP)
 	$(BIN)/python -m pip install --quiet mypy

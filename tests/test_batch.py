@@ -26,6 +26,7 @@ def test_expand_inputs(clips, tmp_path):
         expand_inputs([str(tmp_path / "*.mp4")])
 
 
+@pytest.mark.slow
 def test_local_batch_resumable_and_reports_failures(clips, tmp_path):
     out = tmp_path / "out"
     rows = run_batch([clips], out, kind="local", workers=2)
@@ -54,6 +55,7 @@ def test_ray_batch(clips, tmp_path):
     assert [r["status"] for r in rows] == ["ok"]
 
 
+@pytest.mark.slow
 def test_batch_cli_exit_code(clips, tmp_path):
     res = run("batch", clips, "-o", tmp_path / "out", "--workers", "2", "--preset", "fast")
     assert res.returncode == 1

@@ -131,6 +131,7 @@ def test_readout_in_ms_for_a_folder_needs_its_frame_rate(tmp_path, scene):
 
 @pytest.mark.parametrize("value, readout", [
     (0.9, 0.9), ("0.9", 0.9), ("27ms", 0.81), ("auto", None), (None, 1.0)])
+@pytest.mark.slow
 def test_batch_preset_readout_as_number_string_time_auto_or_missing(tmp_path, clip, value,
                                                                     readout):
     """A JSON preset's readout: a number ended in a traceback (AttributeError: strip)."""
@@ -338,6 +339,7 @@ def test_correct_a_video_with_its_gyro_log_keeps_frames_and_audio(tmp_path, scen
     assert err < 0.1 * unc
 
 
+@pytest.mark.slow
 def test_simulate_writes_a_gyro_log_that_corrects_its_clip(tmp_path, scene):
     """simulate --gyro-out, then correct --method gyro (the log beside the clip), evaluate."""
     src = tmp_path / "scene.png"

@@ -48,6 +48,7 @@ def _content_path(sims, traj):
     return true, true + np.array([f.reframe.shift for f in traj.frames])
 
 
+@pytest.mark.slow
 def test_shake_is_taken_out(shaky, stabilised):
     # Measured: frame-to-frame motion 3.5 px RMS in, 0.3 out (0.09x).
     true, shown = _content_path(shaky, stabilised[1])
@@ -56,6 +57,7 @@ def test_shake_is_taken_out(shaky, stabilised):
     assert after < 0.15 * before
 
 
+@pytest.mark.slow
 def test_a_pan_is_kept_and_the_shift_stays_in_the_crop(scene):
     t = np.arange(-2.0, 40.0, 0.25)
     shake = Motion("shake")(t)
@@ -74,6 +76,7 @@ def test_a_pan_is_kept_and_the_shift_stays_in_the_crop(scene):
     assert speed[0] == pytest.approx(5.0, abs=0.3) and abs(speed[1]) < 0.3
 
 
+@pytest.mark.slow
 def test_one_warp_is_sharper_than_correcting_then_stabilising(shaky, stabilised):
     # The same reframes applied to the plain correction: a second resampling blurs.
     one, traj = stabilised
@@ -228,6 +231,7 @@ def _tracked_roll(pictures):
     return float(np.sqrt(np.mean(np.square(steps))))
 
 
+@pytest.mark.slow
 def test_roll_is_taken_out(scene):
     # Frames turned by a 2 degree, 12-frame wobble and a 1 degree, 5-frame one (read
     # almost at once): measured 1.08 -> 0.32 degrees of roll per frame (RMS) at 480x360.
