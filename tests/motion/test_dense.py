@@ -1,4 +1,4 @@
-"""Dense method building blocks (end-to-end accuracy is in tests/test_pipeline.py)."""
+"""Dense method building blocks (end to end: tests/motion/test_dense_quality.py)."""
 
 import cv2
 import numpy as np
