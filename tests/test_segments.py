@@ -105,21 +105,14 @@ def test_the_gyro_method_is_not_split(clip, tmp_path):
 
 
 @pytest.mark.slow
-def test_dask_segments(clip, single, tmp_path):
-    pytest.importorskip("distributed")
-    res = run("correct", clip, "-o", tmp_path / "d.mp4", "--readout", "0.9", "--crf", "0",
-              "--segments", "3", "--executor", "dask", "--workers", "2", "-q")
+@pytest.mark.parametrize("kind, extra", [("dask", "distributed"), ("ray", "ray")])
+def test_cluster_segments(clip, single, tmp_path, kind, extra):
+    pytest.importorskip(extra)
+    out = tmp_path / f"{kind}.mp4"
+    res = run("correct", clip, "-o", out, "--readout", "0.9", "--crf", "0",
+              "--segments", "3", "--executor", kind, "--workers", "2", "-q")
     assert res.returncode == 0, res.stderr
-    _same_as_one_run(tmp_path / "d.mp4", single, clip)
-
-
-@pytest.mark.slow
-def test_ray_segments(clip, single, tmp_path):
-    pytest.importorskip("ray")
-    res = run("correct", clip, "-o", tmp_path / "r.mp4", "--readout", "0.9", "--crf", "0",
-              "--segments", "3", "--executor", "ray", "--workers", "2", "-q")
-    assert res.returncode == 0, res.stderr
-    _same_as_one_run(tmp_path / "r.mp4", single, clip)
+    _same_as_one_run(out, single, clip)
 
 
 def test_segments_refuse_side_outputs_in_one_line(clip, tmp_path):

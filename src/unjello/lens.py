@@ -11,13 +11,12 @@ renders a world through it, all with this one model.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-__all__ = ["Lens", "lens_of"]
+__all__ = ["Lens"]
 
 
 @dataclass(frozen=True)
@@ -87,8 +86,3 @@ class Lens:
     def scaled(self, factor: float) -> Lens:
         """Return the lens for a plane ``factor`` times the frame's size (chroma)."""
         return Lens(self.focal * factor, self.k)
-
-
-def lens_of(focal: float | None, k: Sequence[float] | None) -> Lens | None:
-    """Return a :class:`Lens`, or None without a focal length."""
-    return None if focal is None else Lens(float(focal), None if k is None else tuple(k))

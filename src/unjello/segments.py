@@ -31,8 +31,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .batch import executor
 from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
@@ -44,7 +42,7 @@ from .io.source import FrameSource
 from .io.video import VideoReader, VideoWriter
 from .motion.dense import DenseMethod
 from .parallel import cores, frame_threads
-from .pipeline import Corrector, _light
+from .pipeline import Corrector, _light, _luma255
 from .stabilize import Stabilizer
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory
@@ -117,10 +115,9 @@ def _decide_vibration(source: FrameSource, timing: SensorTiming, config: Correct
     if config.method != "dense" or config.dense.vibration != "auto":
         return config, None
     method = DenseMethod(timing, config.dense)
-    for picture in source.pictures(fps):
-        mv = source.info.max_value
-        luma = to_top_bottom(picture.planes[0], timing.direction).astype(np.float32)
-        method.push(luma * np.float32(255.0 / mv), picture.start)
+    for picture in source.pictures(fps):  # the grey frames a Corrector gives its method
+        method.push(_luma255(to_top_bottom(picture.planes[0], timing.direction),
+                             source.info.max_value), picture.start)
         if method.vibrating is not None:
             break
     if method.vibrating is None:

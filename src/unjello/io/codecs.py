@@ -73,10 +73,6 @@ CODECS: dict[str, Codec] = {c.name: c for c in (
 FORMAT_SUFFIX = {"nut": ".nut", "yuv4mpegpipe": ".y4m", "matroska": ".mkv", "mpegts": ".ts"}
 
 
-def _codec(name: str) -> Codec | None:
-    return CODECS.get(name)
-
-
 def check_output(codec: str, profile: str | None, dst: Path, fmt: str | None = None) -> None:
     """Refuse a codec the container cannot hold, or a profile the codec does not have.
 
@@ -88,7 +84,7 @@ def check_output(codec: str, profile: str | None, dst: Path, fmt: str | None = N
     SettingsError
         One line saying what would work.
     """
-    known = _codec(codec)
+    known = CODECS.get(codec)
     if known is None:
         if profile:
             raise SettingsError(f"profile= is for prores_ks and dnxhd, not {codec}")
@@ -114,7 +110,7 @@ def output_format(codec: str, profile: str | None, planes_format: str) -> str:
     cannot take the input's format gets its preferred one of the same bit depth if it has
     one.
     """
-    known = _codec(codec)
+    known = CODECS.get(codec)
     if known is None:
         return planes_format
     if known.profiles:
@@ -128,7 +124,7 @@ def output_format(codec: str, profile: str | None, planes_format: str) -> str:
 
 def encoder_options(codec: str, crf: int, preset: str, profile: str | None) -> dict[str, str]:
     """Return the encoder's own options: CRF and preset for x264/x265, a profile for others."""
-    known = _codec(codec)
+    known = CODECS.get(codec)
     if known is None:
         return {}
     if known.crf:
