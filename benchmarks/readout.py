@@ -6,13 +6,20 @@
    abruptly), drone jello, a diagonal pan that stops and a constant one at rho
    0.3 ... 1.0; true vs estimated, confidence, and the median / worst error per
    motion. "unsure" marks an estimate that fell back to 1.0 for lack of evidence.
-3. What it picks on the shared real and rendered sequences (no ground truth for the
+3. Straight lines (:mod:`unjello.readout_lines`): a simulated street of buildings and
+   poles (``street_scene``, its verticals upright, or leaning by 0.03 with the camera
+   rolled by 0.05 rad), a constant pan, a two-frame pair and hand shake at rho
+   0.3 ... 1.0 in all four scan directions: what ``estimate_readout`` says (with both
+   cues), and whether it is confident and right, confident and wrong, or unknown.
+4. What it picks on the shared real and rendered sequences (no ground truth for the
    readout beyond "about one frame interval"; the phone clip's publisher states a
    rolling-shutter span of 33.312 ms at 30 fps, i.e. rho 1.0).
+5. The research pairs (Fastec, Carla; readout 1.0): each two-frame pair, and each set
+   pooled (``pool_estimates``).
 
 Usage::
 
-    python benchmarks/readout.py [--frames 12] [--size 320x240]
+    python benchmarks/readout.py [--frames 12] [--size 320x240] [--skip-motion]
 """
 
 from __future__ import annotations
@@ -24,8 +31,13 @@ import numpy as np
 from skimage import data
 
 from unjello.io.frames import read_image
-from unjello.readout import estimate_readout, estimate_readout_file, readout_from_flicker
-from unjello.simulate import Motion, simulate
+from unjello.readout import (
+    estimate_readout,
+    estimate_readout_file,
+    pool_estimates,
+    readout_from_flicker,
+)
+from unjello.simulate import Motion, simulate, street_scene
 from unjello.timing import SensorTiming
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -49,12 +61,78 @@ def _diagonal_stop(frames: int) -> Motion:
     return Motion("spline", knots=(t, x, 0.6 * x))
 
 
+def lines(frames: int, size: tuple[int, int]) -> None:
+    """Print the straight-lines rows: street scenes, three motions, four directions."""
+    print(f"\nstraight lines: a street scene, {size[0]}x{size[1]}; cells: both cues | the "
+          "lines alone (+-sigma), '?' unknown; per row (both cues): confident and within "
+          "0.05 / confident / all")
+    directions = ("top-bottom", "bottom-top", "left-right", "right-left")
+    cases = {"constant pan": (Motion("pan", speed=8.0), frames),
+             "two-frame pair": (Motion("pan", speed=8.0), 2),
+             "hand shake": (Motion("shake"), frames)}
+    good = confident = total = lines_good = lines_conf = 0
+    for lean, roll in ((0.0, 0.0), (0.03, 0.05)):
+        scene = street_scene((3 * size[0], 3 * size[1]), lean=lean, roll=roll)
+        print(f" scene lean {lean}, roll {roll} rad")
+        for name, (motion, n) in cases.items():
+            for d in directions:
+                cells, row_good, row_conf = [], 0, 0
+                for rho in RHOS:
+                    sim = [s.rolling for s in simulate(scene, motion, SensorTiming(rho, d), n,
+                                                       size=size)]
+                    est = estimate_readout(sim, direction=d, max_frames=n)
+                    alone = estimate_readout(sim, direction=d, max_frames=n, motion=False)
+                    ok = est.reliable and abs(est.readout - rho) <= 0.05
+                    row_good += ok
+                    row_conf += est.reliable
+                    lines_good += alone.reliable and abs(alone.readout - rho) <= 0.05
+                    lines_conf += alone.reliable
+                    cells.append((f"{est.readout:.3f}" if est.reliable else "?") + " | "
+                                 + (f"{alone.readout:.3f}+-{alone.uncertainty:.3f}"
+                                    if alone.reliable else "?"))
+                good, confident, total = good + row_good, confident + row_conf, total + len(RHOS)
+                print(f"  {name:15} {d:11}" + "".join(f"{c:>22}" for c in cells)
+                      + f"   {row_good}/{row_conf}/{len(RHOS)}", flush=True)
+    print(f"in all, both cues: {good} confident and within 0.05, "
+          f"{confident - good} confident and wrong, {total - confident} unknown, of {total}")
+    print(f"the lines alone: {lines_good} confident and within 0.05, "
+          f"{lines_conf - lines_good} confident and wrong, {total - lines_conf} unknown")
+
+
+def pairs() -> None:
+    """Each research pair (two frames) and each set pooled; their readout is 1.0."""
+    print("\nresearch pairs (two frames each, readout 1.0):")
+    for name in ("fastec", "carla"):
+        folder = SHARED / "pairs" / name
+        if not folder.exists():
+            print(f"  {name}: skipped, {folder} is absent")
+            continue
+        ests = []
+        for pair in sorted(folder.iterdir()):
+            est = estimate_readout([read_image(pair / "rs_0.png"), read_image(pair / "rs_1.png")])
+            ests.append(est)
+        known = [e for e in ests if e.reliable]
+        worst = max((abs(e.readout - 1.0) for e in known), default=0.0)
+        guesses = ", ".join(f"{e.best_guess:.2f}+-{e.uncertainty:.2f}" for e in ests
+                            if np.isfinite(e.uncertainty))
+        print(f"  {name}: {len(known)} of {len(ests)} pairs known (worst error {worst:.3f}); "
+              f"best guesses {guesses}")
+        pooled = pool_estimates(ests)
+        print(f"  {name} pooled: {pooled.describe()} (best guess {pooled.best_guess:.3f})")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=12)
     ap.add_argument("--size", default="320x240")
+    ap.add_argument("--skip-motion", action="store_true",
+                    help="only the straight lines and the research pairs")
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
+    if args.skip_motion:
+        lines(args.frames, size)
+        pairs()
+        return
     led = SHARED / "readout" / "led_1khz_nikon1j1_1080p30.png"
     if led.exists():
         r = readout_from_flicker(read_image(led), 1000.0)
@@ -105,8 +183,10 @@ def main() -> None:
         else:
             est = estimate_readout_file(path, max_frames=60)
         state = "estimated" if est.reliable else "unsure, fell back to"
-        print(f"  {name}: {state} {est.readout:.3f} (confidence {est.confidence:.2f})",
-              flush=True)
+        print(f"  {name}: {state} {est.readout:.3f} (confidence {est.confidence:.2f}, "
+              f"{est.cue})", flush=True)
+    lines(args.frames, size)
+    pairs()
 
 
 if __name__ == "__main__":

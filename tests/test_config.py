@@ -3,17 +3,21 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from unjello.clip import resolve_timing
 from unjello.config import OPTIONS, PRESETS, CorrectionConfig
 from unjello.errors import SettingsError
+from unjello.readout import MOTION_SIGMA, ReadoutEstimate
 from unjello.timing import Milliseconds, SensorTiming
 
 
-class _Estimate:
-    def __init__(self, readout, reliable=True):
-        self.readout, self.reliable, self.confidence, self.model = readout, reliable, 0.8, "smooth"
+def _Estimate(readout, reliable=True):
+    return ReadoutEstimate(readout, 0.8 if reliable else 0.1, reliable, np.zeros(0),
+                           np.zeros(0), cue="motion" if reliable else "none",
+                           uncertainty=MOTION_SIGMA if reliable else float("inf"),
+                           best_guess=readout if reliable else float("nan"))
 
 
 def test_presets_are_library_objects(tmp_path):
@@ -111,7 +115,7 @@ def test_order_of_precedence(tmp_path):
 def test_auto_estimates_when_nothing_states_it(tmp_path):
     r = _resolve(CorrectionConfig(readout="auto"), tmp_path,
                  estimate=lambda direction, fps: _Estimate(0.42))
-    assert r.timing.readout == 0.42 and r.sources["readout"] == "estimated from the motion"
+    assert r.timing.readout == 0.42 and r.sources["readout"].startswith("estimated from the motion")
     weak = _resolve(CorrectionConfig(readout="auto"), tmp_path,
                     estimate=lambda direction, fps: _Estimate(1.0, reliable=False))
     assert weak.sources["readout"] == "default" and weak.messages[0].startswith("warning")
@@ -127,18 +131,28 @@ def test_a_readout_borrowed_from_another_aspect_goes_after_a_reliable_estimate(t
     assert "(4096x1344; none is 1.77:1)" in r.messages[0]
     r = _resolve(CorrectionConfig(readout="auto"), tmp_path,
                  estimate=lambda direction, fps: _Estimate(0.42), **kw)
-    assert r.timing.readout == 0.42 and r.sources["readout"] == "estimated from the motion"
+    assert r.timing.readout == 0.42 and r.sources["readout"].startswith("estimated from the motion")
     assert "no mode of GoPro Max like this clip's" in r.messages[0]
     weak = _resolve(CorrectionConfig(readout="auto"), tmp_path,
                     estimate=lambda direction, fps: _Estimate(0.42, reliable=False), **kw)
     assert weak.sources["readout"] == "camera database (GoPro Max)"
     assert weak.timing.readout == pytest.approx(1.0)
-    # A clip of the camera's own aspect takes the database's readout without estimating.
-    def never(direction, fps):
-        raise AssertionError("estimated")
-    hero5 = _resolve(CorrectionConfig(readout="auto"), tmp_path, estimate=never,
-                     size=(854, 480), identified="GoPro HERO5 Black", video_fps=29.97)
+    # A clip of the camera's own aspect takes the database's readout, checked against
+    # the footage: 21.69 ms at 29.97 fps is 0.65 of the frame interval.
+    kw5 = {"size": (854, 480), "identified": "GoPro HERO5 Black", "video_fps": 29.97}
+    hero5 = _resolve(CorrectionConfig(readout="auto"), tmp_path,
+                     estimate=lambda direction, fps: _Estimate(0.64), **kw5)
     assert hero5.sources["readout"] == "camera database (GoPro HERO5 Black)"
+    assert hero5.sources["readout_check"] == "the footage agrees"
+    # Where the footage contradicts it, it says so; with 'auto' the footage goes first.
+    for readout in (None, "auto"):
+        off = _resolve(CorrectionConfig(readout=readout), tmp_path,
+                       estimate=lambda direction, fps: _Estimate(0.3), **kw5)
+        assert off.sources["readout_check"] == "the footage disagrees"
+        warning = [m for m in off.messages if m.startswith("warning")]
+        # Its four profiles disagree (16.7-33.4 ms): their spread is its uncertainty.
+        assert len(warning) == 1 and "0.500-1.000" in warning[0] and "say 0.300" in warning[0]
+        assert off.timing.readout == pytest.approx(0.3 if readout else 0.65, abs=0.01)
 
 
 def test_one_frame_rate_for_a_folder(tmp_path):

@@ -7,7 +7,6 @@ output.
 
 from __future__ import annotations
 
-import dataclasses
 import errno
 import json
 import os
@@ -24,6 +23,7 @@ import numpy as np
 from click.core import ParameterSource
 
 from . import __version__
+from .cli_readout import cameras, estimate_readout, readout
 from .config import OPTIONS, PRESETS, CorrectionConfig
 from .errors import SettingsError, UnjelloError
 from .io.video import EncodeOptions
@@ -231,8 +231,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
         traj = runner(input, output, config, overwrite=overwrite,
                              motion_out=motion_out, motion_in=motion_in, preview=preview,
                              stmap=stmap, progress=progress, log=log,
-                             on_timing=lambda r: decided.update(fps=r.fps,
-                                                                sources=dict(r.sources)),
+                             on_timing=lambda r: decided.update(
+                                 fps=r.fps, sources=dict(r.sources), estimate=r.estimate),
                              on_gyro=lambda g: decided.update(gyro=g))
     seconds = time.perf_counter() - t0
     stab = config.stabilize
@@ -240,20 +240,13 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
     for line in found.warnings():
         log(line)
     if as_json:
+        est = decided.get("estimate")
         click.echo(json.dumps({
-            "input": str(input), "output": str(output), "frames": len(traj),
-            "method": traj.method, "readout": traj.timing.readout,
-            "direction": traj.timing.direction, "reference": traj.timing.reference,
+            "input": str(input), "output": str(output), **found.as_json(traj),
             "seconds": round(seconds, 3), "fps": round(len(traj) / max(seconds, 1e-9), 2),
-            "bridged_frames": found.bridged, "fallback_fraction": round(found.fallback, 4),
-            "entering_fraction": round(found.entering, 4),
-            "kept_frames": [i for i, _ in found.kept],
-            "folded_frames": [i for i, _ in found.folded],
-            "folds": [round(f.folds, 4) for f in traj.frames],
-            "spun_frames": list(found.spun), "vibration": found.vibration,
-            "confidence": [round(f.confidence, 3) for f in traj.frames],
             "frame_rate": decided["fps"], "sources": decided["sources"],
-            "gyro": decided["gyro"], "stabilized": found.stabilized, "messages": messages}))
+            "readout_estimate": est.as_json(costs=False) if est is not None else None,
+            "gyro": decided["gyro"], "messages": messages}))
     elif not quiet:
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:.4g} "
                    f"({decided['sources']['readout']}), "
@@ -302,62 +295,6 @@ def preview(input: Path, preset: str | None, port: int, no_browser: bool, max_fr
         if not no_browser:
             threading.Timer(1.0, webbrowser.open, [url]).start()
         uvicorn.run(create_app(clip), host="127.0.0.1", port=port, log_level="warning")
-
-
-@cli.command()
-@click.argument("image", type=click.Path(path_type=Path))
-@click.option("--frequency", type=click.FloatRange(min=0, min_open=True), required=True,
-              help="Flicker frequency in Hz (LED drive frequency, or 100/120 for mains).")
-@click.option("--fps", type=click.FloatRange(min=0, min_open=True),
-              help="Frame rate, to also print the readout as a fraction of the frame interval.")
-@click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
-              show_default=True)
-@click.option("--json", "as_json", is_flag=True)
-def readout(image: Path, frequency: float, fps: float | None, direction: str,
-            as_json: bool) -> None:
-    """Measure the readout time from one frame of a light flickering at a known frequency."""
-    from .io.frames import read_image
-    from .readout import readout_from_flicker
-
-    if not image.exists():
-        raise UnjelloError(f"{image}: no such file")
-    r = readout_from_flicker(read_image(image), frequency, direction=direction)
-    if as_json:
-        click.echo(json.dumps({"milliseconds": r.milliseconds, "period_lines": r.period_lines,
-                               "lines": r.lines, "contrast": r.contrast,
-                               "ratio": r.ratio(fps) if fps else None}))
-        return
-    line = (f"readout {r.milliseconds:.3f} ms ({r.lines} lines, band period "
-            f"{r.period_lines:.2f} lines at {frequency:g} Hz)")
-    if fps:
-        line += f"; at {fps:g} fps: --readout {r.ratio(fps):.3f}"
-    click.echo(line)
-
-
-@cli.command("estimate-readout")
-@click.argument("input", type=click.Path(path_type=Path))
-@click.option("--direction", type=click.Choice(DIRECTIONS), default="top-bottom",
-              show_default=True)
-@click.option("--frames", type=click.IntRange(3, 10000), default=60, show_default=True,
-              help="Frames analysed from the start.")
-@click.option("--json", "as_json", is_flag=True)
-def estimate_readout(input: Path, direction: str, frames: int, as_json: bool) -> None:
-    """Estimate the readout ratio of INPUT (video or folder) from its motion."""
-    from .readout import estimate_readout_file
-
-    est = estimate_readout_file(input, direction=direction, max_frames=frames)
-    if as_json:
-        click.echo(json.dumps({"readout": est.readout, "confidence": est.confidence,
-                               "reliable": est.reliable, "model": est.model,
-                               "candidates": est.candidates.tolist(),
-                               "costs": est.costs.tolist()}))
-        return
-    if est.reliable:
-        click.echo(f"readout {est.readout:.3f} of the frame interval "
-                   f"(confidence {est.confidence:.2f}, {est.model} motion model)")
-    else:
-        click.echo(f"readout unknown: the motion is too weak or too uniform to tell "
-                   f"(confidence {est.confidence:.2f}); default {est.readout:g}")
 
 
 @cli.command()
@@ -542,35 +479,8 @@ def probe(input: Path, as_json: bool) -> None:
                    + ", ".join(f"{v:.3g}" for v in d["lens"]["distortion"]))
 
 
-@cli.command()
-@click.argument("search", nargs=-1)
-@click.option("--all", "show_all", is_flag=True, help="Also the modes no profile gives a "
-              "readout for.")
-@click.option("--json", "as_json", is_flag=True, help="One JSON object per mode.")
-def cameras(search: tuple[str, ...], show_all: bool, as_json: bool) -> None:
-    """List the camera database's modes matching SEARCH (words of brand, model, mode)."""
-    from .cameras import search as find
-
-    modes = [m for m in find(" ".join(search)) if show_all or m.readout_ms]
-    if as_json:
-        for m in modes:
-            click.echo(json.dumps(dataclasses.asdict(m)))
-        return
-    if not modes:
-        raise UnjelloError(f"no camera in the database matches {' '.join(search)!r}"
-                           + ("" if show_all else " with a readout (try --all)"))
-    from rich.console import Console
-    from rich.table import Table
-
-    table = Table("camera", "mode", "size", "fps", "readout", "profiles",
-                  title=f"{len(modes)} mode(s); readout: median of the profiles stating one "
-                        "(agreeing within 5 % / stating); - : bottom to top")
-    for m in modes:
-        readout = (f"{m.readout_ms:g} ms ({m.readout_agree}/{m.readout_n})"
-                   if m.readout_ms else "")
-        table.add_row(m.name, m.mode, f"{m.width}x{m.height}", f"{m.fps:g}", readout,
-                      str(m.profiles))
-    Console().print(table)
+for _command in (readout, estimate_readout, cameras):
+    cli.add_command(_command)
 
 
 def _reader_gone() -> None:

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
@@ -44,16 +46,21 @@ class ResolvedTiming:
     sources : dict
         ``readout``, ``direction``, ``reference`` and ``fps`` -> where the value came
         from (``"command line"``, ``"preset drone"``, ``"sidecar NAME.json"``,
-        ``"container metadata"``, ``"estimated from the motion"``, ``"motion file"``,
+        ``"container metadata"``, ``"estimated from the motion (...)"`` (naming the
+        cue and its confidence), ``"motion file"``,
         ``"the video"``, ``"default"``).
     messages : tuple of str
-        What the user should be told (a readout found or estimated, a weak estimate).
+        What the user should be told (a readout found or estimated, a weak estimate, a
+        stated readout the footage contradicts).
+    estimate : ReadoutEstimate, optional
+        What the footage said of the readout, where it was asked.
     """
 
     timing: SensorTiming
     fps: float
     sources: Mapping[str, str]
     messages: tuple[str, ...] = ()
+    estimate: Any = None
 
 
 def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | None,
@@ -132,6 +139,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
 
     request = config.readout
     readout: float
+    est = None
     if request is not None and request != "auto":
         sources["readout"] = given.get("readout", "settings")
         readout = ratio(request) if isinstance(request, Milliseconds) else float(request)
@@ -144,7 +152,6 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
                                 "frame_readout_time")
         stated = stated or (None if is_pipe(path) else stated_readout(path))
         found = None if stated is not None else _database(config, identified, size, fps)
-        est = None
         if (found is not None and not found.same_aspect and request == "auto"
                 and estimate is not None):
             # A readout borrowed from sensor modes of another aspect ratio is a guess: a
@@ -171,19 +178,63 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
             est = est or estimate(direction, fps)
             readout = float(est.readout)
             if est.reliable:
-                sources["readout"] = "estimated from the motion"
-                messages.append(f"readout estimated from the motion: {est.readout:.3f} of the "
-                                f"frame interval (confidence {est.confidence:.2f}, "
-                                f"{est.model} motion model)")
+                sources["readout"] = _estimated(est)
+                messages.append(f"readout estimated from the {_cue_words(est)}: "
+                                f"{est.readout:.3f} of the frame interval (+-"
+                                f"{est.uncertainty:.3f}, confidence {est.confidence:.2f})")
             else:
                 sources["readout"] = "default"
-                messages.append(f"warning: the motion is too weak or too uniform to estimate "
-                                f"the readout (confidence {est.confidence:.2f}); using "
-                                f"{est.readout:g}")
+                messages.append(f"warning: the footage cannot tell the readout "
+                                f"({est.note or 'too still, too uniform or too flat'}; "
+                                f"confidence {est.confidence:.2f}); using {est.readout:g}")
         else:
             readout, sources["readout"] = 1.0, "default"
+        checked = sources["readout"].startswith(("camera database", "lens profile"))
+        if checked and estimate is not None and not is_pipe(path):
+            # What the footage says, against the database or the profile.
+            est = est or estimate(direction, fps)
+            lo, hi = ((readout, readout) if found is None or 2 * found.agree > found.profiles
+                      else (found.spread[0] * fps / 1000.0, found.spread[1] * fps / 1000.0))
+            said = _disagreement(est, readout, lo, hi, sources["readout"])
+            if said:
+                sources["readout_check"] = "the footage disagrees"
+                if request == "auto":  # the footage goes first
+                    readout, sources["readout"] = float(est.readout), _estimated(est)
+                    said += "; the footage's is used"
+                else:
+                    said += "; give --readout auto to use the footage's"
+                messages.append(said)
+            elif est.reliable:
+                sources["readout_check"] = "the footage agrees"
     timing = SensorTiming(readout, direction, reference)  # type: ignore[arg-type]
-    return ResolvedTiming(timing, fps, sources, tuple(messages))
+    return ResolvedTiming(timing, fps, sources, tuple(messages), est)
+
+
+def _estimated(est: Any) -> str:
+    """Name the source of a readout estimated from the footage: its cue, its confidence."""
+    return f"estimated from the {_cue_words(est)} (confidence {est.confidence:.2f})"
+
+
+def _cue_words(est: Any) -> str:
+    return {"motion": f"motion ({est.model} model)", "lines": "straight lines"}.get(
+        est.cue, est.cue)
+
+
+def _disagreement(est: Any, readout: float, lo: float, hi: float, source: str) -> str:
+    """Warn where the footage's reliable estimate is outside a stated readout's range.
+
+    The range is the stated value, or the database's where most of its profiles agree,
+    else the spread of its profiles (it does not know better), widened by 5 % (profiles
+    round); the estimate counts with two standard deviations either side.
+    """
+    if not est.reliable or not np.isfinite(est.uncertainty):
+        return ""
+    margin = 2.0 * est.uncertainty
+    if lo * 0.95 - margin <= est.readout <= hi * 1.05 + margin:
+        return ""
+    rng = f"{lo:.3f}-{hi:.3f}" if hi - lo > 1e-3 else f"{readout:.3f}"
+    return (f"warning: the {source} gives a readout of {rng} of the frame interval, but "
+            f"the {_cue_words(est)} say {est.readout:.3f} (+-{est.uncertainty:.3f})")
 
 
 def _database(config: CorrectionConfig, identified: str | None,

@@ -43,6 +43,7 @@ low confidence.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -51,10 +52,12 @@ import cv2
 import numpy as np
 
 from .errors import InputError
+from .readout_lines import CONFIDENT, LineCue, confidence_of, line_readout
 from .timing import to_top_bottom
 
-__all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "ReadoutEstimate",
-           "estimate_readout", "estimate_readout_file"]
+__all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "MOTION_SIGMA",
+           "ReadoutEstimate", "estimate_readout", "estimate_readout_file", "pool_estimates",
+           "estimate_clips", "readout_preset"]
 
 
 @dataclass(frozen=True)
@@ -225,6 +228,12 @@ def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: 
     return sinusoid_pursuit(ta, tb, delta, weight, drift, _SINUSOIDS, _MAX_CYCLES)[1]
 
 
+#: The uncertainty (one sigma, fraction of the frame interval) given to a reliable
+#: estimate from the motion: its errors on the simulated clips of
+#: ``benchmarks/readout.py`` are within 0.015 where it says it is reliable.
+MOTION_SIGMA = 0.02
+
+
 @dataclass(frozen=True)
 class ReadoutEstimate:
     """Readout ratio estimated from footage.
@@ -234,14 +243,25 @@ class ReadoutEstimate:
     readout : float
         The estimate (or the fallback), fraction of the frame interval.
     confidence : float
-        0-1: how much better the best candidate explains the motion than the others.
+        0-1: for the motion cue, how much better the best candidate explains the motion
+        than the others; for the lines, :func:`~unjello.readout_lines.confidence_of` of
+        their uncertainty. 0.5 and more is reliable.
     reliable : bool
-        False when the motion was too weak or too uniform and ``readout`` is the fallback.
+        False when the footage cannot tell and ``readout`` is the fallback.
     candidates : ndarray of shape (k,)
     costs : ndarray of shape (k,)
-        The fit cost of each candidate (lower is better).
+        The motion fit's cost of each candidate (lower is better).
     model : {'smooth', 'vibration'}
         The trajectory model the candidates were scored with.
+    cue : str
+        What the estimate rests on: ``motion``, ``lines``, ``pooled`` or ``none``.
+    uncertainty : float
+        One standard deviation of the estimate (``inf`` when the footage cannot tell).
+    best_guess : float
+        The estimate even where it is not reliable (NaN with no evidence at all): what
+        :func:`pool_estimates` weighs by its uncertainty.
+    note : str
+        What the straight lines said of a motion estimate (they agree or disagree).
     """
 
     readout: float
@@ -250,12 +270,96 @@ class ReadoutEstimate:
     candidates: np.ndarray
     costs: np.ndarray
     model: str = "smooth"
+    cue: str = "motion"
+    uncertainty: float = float("inf")
+    best_guess: float = float("nan")
+    note: str = ""
+
+    def describe(self) -> str:
+        """One line: the readout and what it rests on, or why it is unknown."""
+        if not self.reliable:
+            why = self.note or "the footage is too still, too uniform or too flat to tell"
+            return (f"readout unknown: {why} (confidence {self.confidence:.2f}); "
+                    f"default {self.readout:g}")
+        rest = {"motion": f"{self.model} motion model", "lines": "the lean of straight lines",
+                "pooled": "clips pooled"}.get(self.cue, self.cue)
+        if self.note:
+            rest += f"; {self.note}"
+        return (f"readout {self.readout:.3f} of the frame interval "
+                f"(+-{self.uncertainty:.3f}, confidence {self.confidence:.2f}, {rest})")
+
+    def as_json(self, costs: bool = True) -> dict:
+        """Return the estimate as plain JSON types (with the candidates' costs, or without)."""
+        def num(v: float) -> float | None:
+            return float(v) if np.isfinite(v) else None
+        out = {"readout": self.readout, "confidence": self.confidence,
+               "reliable": self.reliable, "cue": self.cue, "model": self.model,
+               "uncertainty": num(self.uncertainty), "best_guess": num(self.best_guess),
+               "note": self.note}
+        if costs:
+            out.update(candidates=self.candidates.tolist(), costs=self.costs.tolist())
+        return out
+
+
+def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> ReadoutEstimate:
+    """Combine the motion cue and the lines': the motion first, the lines where it cannot tell.
+
+    Where the motion can tell, its estimate stands and the lines check it (said in the
+    note): averaged in, the lines' estimate made stops and starts over curved edges
+    worse in ``benchmarks/readout.py`` (a velocity that jumps within a frame, edges that
+    are not straight mislead them more than their scatter shows). Where it cannot, a
+    confident lines' estimate is the estimate; else the best guess of either, with its
+    uncertainty, is kept for pooling (:func:`pool_estimates`).
+    """
+    if motion.reliable:
+        note = ""
+        if lines.confident:
+            agree = abs(motion.readout - lines.readout) <= 3.0 * np.hypot(MOTION_SIGMA,
+                                                                          lines.uncertainty)
+            note = (f"the straight lines {'agree' if agree else 'disagree'}: "
+                    f"{lines.readout:.3f} (+-{lines.uncertainty:.3f})")
+        return dataclasses.replace(motion, cue="motion", uncertainty=MOTION_SIGMA,
+                                   best_guess=motion.readout, note=note)
+    if lines.confident:
+        return dataclasses.replace(
+            motion, readout=float(np.clip(lines.readout, 0.05, 1.0)),
+            confidence=confidence_of(lines.uncertainty), reliable=True, cue="lines",
+            uncertainty=lines.uncertainty, best_guess=lines.readout)
+    return dataclasses.replace(motion, readout=fallback, reliable=False, cue="none",
+                               uncertainty=lines.uncertainty, best_guess=lines.readout)
+
+
+def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
+                   ) -> ReadoutEstimate:
+    """Pool the estimates of several clips of one camera mode (its readout is fixed).
+
+    Each clip's best guess counts by its uncertainty (inverse variance). Where the
+    clips disagree more than their uncertainties allow (a reduced chi-square above 1),
+    the pooled uncertainty is widened by its square root (the Birge ratio).
+    """
+    est = [e for e in estimates if np.isfinite(e.uncertainty) and np.isfinite(e.best_guess)]
+    empty = np.zeros(0)
+    if not est:
+        return ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
+    r = np.array([e.best_guess for e in est])
+    w = np.array([1.0 / e.uncertainty ** 2 for e in est])
+    mean = float(np.sum(w * r) / w.sum())
+    sigma = float(1.0 / np.sqrt(w.sum()))
+    if len(est) > 1:
+        chi2 = float(np.sum(w * (r - mean) ** 2) / (len(est) - 1))
+        sigma *= max(1.0, np.sqrt(chi2))
+    reliable = sigma <= CONFIDENT
+    return ReadoutEstimate(float(np.clip(mean, 0.05, 1.0)) if reliable else fallback,
+                           confidence_of(sigma), bool(reliable), empty, empty,
+                           cue="pooled" if reliable else "none", uncertainty=sigma,
+                           best_guess=mean)
 
 
 def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bottom",
                      starts: Iterable[float] | None = None, max_frames: int = 60,
                      fallback: float = 1.0, min_confidence: float = 0.5,
-                     min_variation: float = 0.5) -> ReadoutEstimate:
+                     min_variation: float = 0.5, lines: bool = True,
+                     motion: bool = True) -> ReadoutEstimate:
     """Estimate the readout ratio from a clip (see the module notes).
 
     Parameters
@@ -278,6 +382,11 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     min_variation : float
         Standard deviation (px) the per-row flows must show over rows and frames; less
         is uniform motion, from which the readout cannot be told (confidence 0).
+    lines : bool
+        Also read the lean of straight lines (:func:`~unjello.readout_lines.line_readout`)
+        and combine the two cues (:func:`_combine`).
+    motion : bool
+        Use the motion model (False: the straight lines alone).
 
     Returns
     -------
@@ -299,18 +408,25 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
         grey.append(g.astype(np.float32) * (255.0 / max(float(g.max()), 1.0)
                                             if g.dtype != np.uint8 else 1.0))
         times.append(float(start_list[i]) if start_list is not None else float(i))
-    if len(grey) < 3:
-        return ReadoutEstimate(fallback, 0.0, False, np.zeros(0), np.zeros(0))
+    empty = np.zeros(0)
+    if len(grey) < 2:
+        return ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
     h = grey[0].shape[0]
     # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
     # wide: the confidence threshold was calibrated with it; at full resolution
     # pan-then-stop scored as low as 0.52. (Its flow settings are kept as calibrated.)
     flow = FlowSettings("medium", finest_scale=1, refinement=None, consistency=10.0)
-    pairs, halves = [], []
+    pairs, halves, ahead = [], [], []
     for k in range(1, len(grey)):
-        bwd, ok, _, _ = flow_pair(grey[k - 1], grey[k], flow, 640, two_way=True)
+        bwd, ok, fwd, _ = flow_pair(grey[k - 1], grey[k], flow, 640, two_way=True)
         pairs.append(row_flows(bwd, ok))
         halves.append(half_row_flows(bwd, ok))
+        ahead.append(fwd)
+    line_cue = (line_readout(grey, np.asarray(times), ahead) if lines
+                else LineCue(float("nan"), float("inf"), "none"))
+    if len(grey) < 3 or not motion:  # two frames: no motion model, the lines alone
+        none = ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
+        return _combine(none, line_cue, fallback)
     # Vibration is told as the dense method's --vibration auto tells it (as many pairs).
     vibrating = detect_vibration(halves, h, DenseConfig().probe) is not None
     window = 12 if vibrating else 4
@@ -357,9 +473,16 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     if variation < min_variation:
         confidence = 0.0
     reliable = confidence >= min_confidence
-    return ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
-                           confidence, reliable, candidates, costs,
-                           "vibration" if vibrating else "smooth")
+    if best == 0:  # no minimum inside the candidates: the cost falls on beyond them
+        reliable = False
+    from_motion = ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
+                                  confidence, reliable, candidates, costs,
+                                  "vibration" if vibrating else "smooth",
+                                  uncertainty=MOTION_SIGMA if reliable else float("inf"),
+                                  best_guess=rho if reliable else float("nan"))
+    if vibrating:  # a wobble within the frame bends lines: their lean says nothing clear
+        line_cue = LineCue(float("nan"), float("inf"), "none")
+    return _combine(from_motion, line_cue, fallback)
 
 
 def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
@@ -398,3 +521,46 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
             starts.append(pic.start)
     return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback,
                             max_frames=max_frames)
+
+
+def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-bottom",
+                   max_frames: int = 60
+                   ) -> tuple[list[tuple[str, float | None, ReadoutEstimate]], ReadoutEstimate]:
+    """Estimate the readout of each clip of one camera mode, and pool them.
+
+    Returns
+    -------
+    rows : list of (path, fps, ReadoutEstimate)
+        Each clip's estimate (``fps`` None for a folder).
+    best : ReadoutEstimate
+        The clips pooled (:func:`pool_estimates`), or the one clip's estimate.
+
+    Raises
+    ------
+    SettingsError
+        Standard input (it is read twice), or clips of different frame rates (a camera
+        mode has one; the readout's fraction of a frame interval is pooled at it).
+    """
+    from .errors import SettingsError
+    from .io.source import FrameSource
+
+    rows = []
+    for path in paths:
+        if str(path) == "-":
+            raise SettingsError("estimating the readout reads each clip twice: give files")
+        with FrameSource(path) as source:
+            fps = source.info.fps
+        rows.append((str(path), fps, estimate_readout_file(path, direction=direction,
+                                                           max_frames=max_frames)))
+    rates = sorted({round(fps, 3) for _, fps, _ in rows if fps})
+    if len(rates) > 1:
+        raise SettingsError(f"the clips' frame rates differ ({', '.join(map(str, rates))} fps): "
+                            "pool the clips of one camera mode, at one rate")
+    best = pool_estimates(e for _, _, e in rows) if len(rows) > 1 else rows[0][2]
+    return rows, best
+
+
+def readout_preset(est: ReadoutEstimate, direction: str, fps: float | None) -> dict:
+    """Return a preset (``correct --preset FILE``) of an estimated readout: ms at a known rate."""
+    value: float | str = f"{est.readout * 1000.0 / fps:.3f}ms" if fps else round(est.readout, 4)
+    return {"readout": value, "direction": direction}

@@ -99,6 +99,20 @@ class RunSummary:
         return out
 
 
+    def as_json(self, traj: Trajectory) -> dict:
+        """Return the findings and the per-frame figures, as ``correct --json`` gives them."""
+        return {"frames": len(traj), "method": traj.method, "readout": traj.timing.readout,
+                "direction": traj.timing.direction, "reference": traj.timing.reference,
+                "bridged_frames": self.bridged, "fallback_fraction": round(self.fallback, 4),
+                "entering_fraction": round(self.entering, 4),
+                "kept_frames": [i for i, _ in self.kept],
+                "folded_frames": [i for i, _ in self.folded],
+                "folds": [round(f.folds, 4) for f in traj.frames],
+                "spun_frames": list(self.spun), "vibration": self.vibration,
+                "confidence": [round(f.confidence, 3) for f in traj.frames],
+                "stabilized": self.stabilized}
+
+
 def summarize(traj: Trajectory, stabilize: tuple[float, object] | None = None) -> RunSummary:
     """Read a corrected clip's trajectory into a :class:`RunSummary`.
 

@@ -85,6 +85,11 @@ def test_api(server, clip_dir, tmp_path):
     info = json.loads(body)
     assert status == 200 and info["frames"] == 9 and info["width"] == 240
     assert info["settings"]["readout"] == 1.0 and info["readout_source"] == "default"
+    # What the footage says of the readout, marked on the slider: the clip's (hand shake,
+    # readout 0.7) motion tells it.
+    est = info["readout_estimate"]
+    assert est["reliable"] and est["cue"] == "motion"
+    assert est["readout"] == pytest.approx(0.7, abs=0.05) and est["uncertainty"] > 0
     status, headers, body = _get(server + "/api/frame/4.png?view=corrected&readout=0.7")
     assert status == 200 and headers["content-type"] == "image/png"
     assert float(headers["x-render-seconds"]) > 0

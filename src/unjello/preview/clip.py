@@ -38,6 +38,7 @@ from ..errors import InputError, SettingsError
 from ..io.frames import read_image, write_image
 from ..io.source import FrameSource, read_frames
 from ..pipeline import Corrector
+from ..readout import estimate_readout_file
 from ..timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
 from ..trajectory import FrameMotion, Trajectory
 
@@ -49,6 +50,8 @@ PREVIEW_METHODS = ("dense", "paper")
 # Frames each side of the shown one that its motion depends on (the dense method's
 # window is two pairs each side, the paper's Bezier curve n - 1 ... n + 2).
 _AROUND = 3
+# Frames the footage's readout estimate is made from (at start-up).
+_ESTIMATE_FRAMES = 30
 
 
 class _LRU(OrderedDict):
@@ -207,6 +210,10 @@ class PreviewClip:
         self.is_video = info.is_video
         self.fps = resolved.fps
         self.resolved = resolved
+        # What the footage says of the readout, marked on the page's slider.
+        self.estimate = resolved.estimate or estimate_readout_file(
+            self.src, direction=resolved.timing.direction, fps=resolved.fps,
+            max_frames=_ESTIMATE_FRAMES)
         self.initial = PreviewSettings(config.method, float(resolved.timing.readout),
                                        resolved.timing.direction, resolved.timing.reference,
                                        not config.dense.per_pixel)
@@ -274,6 +281,7 @@ class PreviewClip:
                 "width": self.width, "height": self.height, "fps": self.fps,
                 "settings": self.initial.options(),
                 "readout_source": self.resolved.sources.get("readout", ""),
+                "readout_estimate": self.estimate.as_json(costs=False),
                 "messages": list(self.resolved.messages),
                 "methods": list(PREVIEW_METHODS), "directions": list(DIRECTIONS),
                 "references": list(REFERENCES)}
