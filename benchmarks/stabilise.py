@@ -82,15 +82,15 @@ def vidstab_missing() -> str | None:
     return None if "vidstabtransform" in out else "this ffmpeg is built without vid.stab"
 
 
-def run_vidstab(src: Path, dst: Path, *, smoothing: int = 10, zoom: float | None = None
-                ) -> float:
+def run_vidstab(src: Path, dst: Path, *, smoothing: int = 10, zoom: float | None = None,
+                shakiness: int = 5) -> float:
     """vid.stab's two passes on a PNG folder (it reads planar YUV); returns seconds."""
     dst.mkdir(parents=True, exist_ok=True)
     trf = dst / "transforms.trf"
     pattern = ["-framerate", str(FPS), "-i", str(src / "%05d.png")]
     t0 = time.perf_counter()
     subprocess.run(["ffmpeg", "-v", "error", "-y", *pattern, "-vf",
-                    f"format=yuv420p,vidstabdetect=shakiness=5:accuracy=15:result={trf}",
+                    f"format=yuv420p,vidstabdetect=shakiness={shakiness}:accuracy=15:result={trf}",
                     "-f", "null", "-"],
                    check=True)
     zoom_opt = f":zoom={zoom:.2f}:optzoom=0" if zoom is not None else ""
@@ -257,6 +257,58 @@ def simulated(work: Path, missing: str | None, frames: int) -> None:
         print(f"   vid.stab skipped: {missing}")
 
 
+def phase_jitter(frames: list[np.ndarray]) -> float:
+    """RMS of the frame-to-frame change of the global translation, px per frame squared.
+
+    The translation between consecutive frames by phase correlation (Hann window) on
+    their central 60 %: a stabiliser's output should move steadily, so what changes from
+    one step to the next is jitter. (Issue 31's measure.)
+    """
+    steps = []
+    for a, b in zip(frames[:-1], frames[1:], strict=True):
+        ga, gb = (cv2.cvtColor(f, cv2.COLOR_BGR2GRAY).astype(np.float32) for f in (a, b))
+        h, w = ga.shape
+        sl = (slice(int(0.2 * h), int(0.8 * h)), slice(int(0.2 * w), int(0.8 * w)))
+        win = cv2.createHanningWindow((ga[sl].shape[1], ga[sl].shape[0]), cv2.CV_32F)
+        steps.append(cv2.phaseCorrelate(ga[sl].copy(), gb[sl].copy(), win)[0])
+    change = np.diff(np.array(steps), axis=0)
+    return float(np.sqrt((change ** 2).sum(axis=1).mean()))
+
+
+def walk(work: Path, missing: str | None, frames: int) -> None:
+    """Print the walk's jitter: shake (3.6 x 'shake') on a 2 px/frame pan, each tool's crop."""
+    print(f"\n1b. a walk (simulated: Motion('walk'), shake on a 2 px/frame pan), 640x360, "
+          f"readout 0.8, {frames} frames; jitter (phase correlation, central 60 %: RMS of "
+          "the frame-to-frame change of the translation, px/frame^2), each tool's own crop")
+    timing = SensorTiming(0.8)
+    sims = list(simulate(data.astronaut(), Motion("walk", speed=2.0), timing, frames,
+                         size=(640, 360)))
+    bgr = [cv2.cvtColor(s.rolling, cv2.COLOR_RGB2BGR) for s in sims]
+    truth = [cv2.cvtColor(s.truth, cv2.COLOR_RGB2BGR) for s in sims]
+    src = _write(bgr, work / "walk" / "in")
+    cells = {"input": phase_jitter(bgr)}
+    if missing is None:
+        for label, kw in (("vid.stab defaults", {}),
+                          ("vid.stab shakiness=8, smoothing=15",
+                           {"smoothing": 15, "shakiness": 8})):
+            dst = work / "walk" / label.split(",")[0].replace(" ", "_").replace("=", "")
+            run_vidstab(src, dst, **kw)
+            cells[label] = phase_jitter(_frames(dst))
+    plain, stab = work / "walk" / "plain", work / "walk" / "stab"
+    run_unjello(src, plain, "--readout", "0.8")
+    run_unjello(src, stab, "--readout", "0.8", "--stabilize")
+    out = _frames(stab)
+    cells["unjello --stabilize"] = phase_jitter(out)
+    zooms = [f.reframe.zoom for f in Trajectory.load(stab.with_suffix(".json")).frames]
+    print("   " + "; ".join(f"{k} {v:.2f}" for k, v in cells.items())
+          + f" (unjello's zoom {min(zooms):.3f}-{max(zooms):.3f})")
+    rs = (rs_psnr(_frames(plain), truth, plain.with_suffix(".json")),
+          rs_psnr(out, truth, stab.with_suffix(".json")))
+    print(f"   RS PSNR (dB): corrected {rs[0]:.2f} / corrected+stabilised {rs[1]:.2f}")
+    if missing is not None:
+        print(f"   vid.stab skipped: {missing}")
+
+
 # ---------------------------------------------------------------- real clips
 
 def _read_video(path: Path, limit: int) -> list[np.ndarray]:
@@ -376,6 +428,7 @@ def main() -> None:
         work = Path(tmp)
         if not args.skip_simulated:
             simulated(work, missing, args.frames)
+            walk(work, missing, args.frames)
         if not args.skip_real:
             real(work, missing, args.frames, args.only)
         if args.speed:

@@ -51,6 +51,10 @@ CASES = {
     "whip pan 18 %, gravel": (Motion("whip", speed=57.6), "planar", 0.0, False, "gravel"),
     "whip pan 18 %, brick": (Motion("whip", speed=57.6), "planar", 0.0, False, "brick"),
     "whip 18 % + blur, noise, CRF 26": (Motion("whip", speed=57.6), "planar", 0.3, True),
+    # Still for 0.2 s, up to 560 px/s over 0.3 s (at 640 px; scaled to the frame),
+    # exposure blur over 0.4 of a frame, noise and CRF 26: issue 31's pan from still.
+    "pan from still + blur, noise, CRF 26": (Motion.from_rest(9.33, 0.0, 6.0, 9.0, 44.0),
+                                             "planar", 0.4, True, 30),
     # Spinning objects carried with a panning camera, scored on their own pixels (PSNR:
     # around them) and on the background (PSNR: the whole frame).
     "propeller 6 rev/s (blades)": (Motion("pan", speed=5.0), "propeller", 0.0, False,

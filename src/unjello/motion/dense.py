@@ -67,6 +67,23 @@ __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 #: most 0.15 %, the Carla town sequence 0.03 % (``docs/measurements.md``).
 FOLD_WARNING = 0.002
 
+#: A frame whose map folds in blobs over more than ``KEEP_WHOLE`` of its pixels has them
+#: given the motion around them, with the whole object they are in
+#: (:func:`~unjello.motion.safety.keep_whole`); above ``KEEP_ISLAND`` only those inside
+#: an object that moves on its own within the frame (an island). Measured: the spinners'
+#: frames fold 0.03-0.58 %, the research pairs' at most 0.15 %; keeping every fold above
+#: 0.05 % whole cost the pairs 0.9 dB, islands above 0.1 % their first frames 0.09 dB
+#: (their highest folds 0.147 %; the spinners' frame 4, torn, 0.18 %: a narrow gap)
+#: (``docs/measurements.md``).
+KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
+
+#: Grey levels (0-255, blurred) by which a pixel must differ from both neighbours, moved
+#: by the camera, to move on its own (:meth:`DenseMethod._changing`).
+CHANGE_LEVEL = 12.0
+#: ... not told where the camera moves more than this share of the width between the
+#: frames: the whip pans over texture lost 0.003-0.007x with such islands kept whole.
+CHANGE_PAN = 0.05
+
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
@@ -382,8 +399,10 @@ class DenseMethod:
         notes = []
         folds, kept = fold_share(field), 0.0
         regions = np.zeros((h, w), bool)
-        if folds > FOLD_WARNING:
-            whole, share, after, regions = keep_whole(field, cam_disp, fallback)
+        if folds > KEEP_ISLAND:
+            whole, share, after, regions = keep_whole(
+                field, cam_disp, fallback, changing=self._changing(fr, c_at),
+                islands_only=folds <= KEEP_WHOLE)
             if after < folds:  # never worse by its own measure
                 field, folds, kept = whole, after, share
                 notes.append(f"{100 * kept:.0f}% given the motion around it (the per-pixel "
@@ -395,6 +414,36 @@ class DenseMethod:
         if folds > FOLD_WARNING:
             notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
         return field, folds, kept, spun, "; ".join(n for n in notes if n)
+
+    def _changing(self, fr: _Frame, c_at: Callable[[np.ndarray], np.ndarray]
+                  ) -> np.ndarray | None:
+        """Pixels unlike both neighbours brought over by the camera's motion (bool).
+
+        Each neighbour is moved by the camera's displacement between the two frames'
+        scanline times and compared; what differs from both (blurred, above
+        :data:`CHANGE_LEVEL` grey levels or four times the frame's median difference)
+        moves on its own: a spinning object shows as a whole, arms, rings and all, where
+        its flow's failures are only patches. None without a neighbour, or in a fast pan
+        (:data:`CHANGE_PAN`).
+        """
+        h, w = fr.image.shape
+        t_rows = self.timing.row_times(h, fr.start) - fr.start
+        rows = np.arange(h, dtype=np.float32)[:, None]
+        cols = np.arange(w, dtype=np.float32)[None, :]
+        diffs = []
+        for other in (f for f in self._frames if abs(f.index - fr.index) == 1):
+            d = (c_at(t_rows + (other.start - fr.start)) - c_at(t_rows)).astype(np.float32)
+            if float(np.abs(d).max()) > CHANGE_PAN * w:
+                return None  # a fast pan: the camera's model leaves too much to tell by
+            mx = np.ascontiguousarray(np.broadcast_to(cols + d[:, :1], (h, w)))
+            my = np.ascontiguousarray(np.broadcast_to(rows + d[:, 1:], (h, w)))
+            seen = cv2.remap(np.asarray(other.image, np.float32), mx, my, cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REPLICATE)
+            diffs.append(np.abs(np.asarray(fr.image, np.float32) - seen))
+        if not diffs:
+            return None
+        diff = cv2.GaussianBlur(np.minimum.reduce(diffs), (0, 0), 2.0)
+        return diff > max(CHANGE_LEVEL, 4.0 * float(np.median(diff)))
 
     def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
                             regions: np.ndarray, t_ref: float,

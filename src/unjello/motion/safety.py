@@ -22,11 +22,19 @@ import cv2
 import numpy as np
 
 __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
-           "fill_hull", "keep_whole"]
+           "fill_hull", "fill_holes", "whole_object", "object_islands", "keep_whole"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
 FOLD, TEAR = 0.25, 4.0
+
+#: An island (an object moving on its own, :func:`object_islands`) whose flow failed its
+#: check on at least this share of its pixels is kept whole with the folds
+#: (:func:`keep_whole`).
+ISLAND_FAILED = 0.2
+
+_BORDER_CONTACT = 0.08
+
 
 
 def map_jacobian(field: np.ndarray) -> np.ndarray:
@@ -126,7 +134,8 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
 
 
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
-               reach: int = 24, feather: float = 6.0, passes: int = 3
+               changing: np.ndarray | None = None, islands_only: bool = False,
+               reach: int = 24, feather: float = 12.0, passes: int = 3
                ) -> tuple[np.ndarray, float, float, np.ndarray]:
     """Give the places where the map folds or tears in blobs the motion around them.
 
@@ -146,6 +155,12 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         The camera's displacement per scanline.
     unreliable : ndarray of bool, shape (h, w)
         Pixels whose flow failed its consistency check.
+    changing : ndarray of bool, shape (h, w), optional
+        Pixels unlike both neighbours under the camera's motion: an object that moves
+        on its own is kept whole with them (:func:`whole_object`).
+    islands_only : bool
+        Only the folds inside such an object, one that does not reach the border, count
+        (a map that folds a little elsewhere folds along occlusions: left alone).
     reach, feather : float
         Distance (px) over which failed flow joins a blob's region, and the blend's width.
     passes : int
@@ -163,28 +178,115 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         The places given their surroundings' motion (every pass's), each an object whose
         motion failed: :func:`unjello.motion.spin.keep_spinning` may fit them a rotation.
     """
-    out, seeds = field, fold_blobs(field)
+    islands = object_islands(changing, reach)
+    # Where the frame folds in blobs anyway, an island whose flow failed on much of it
+    # cannot be trusted either (a second spinner, torn without folding): it all seeds.
+    failed = np.zeros(field.shape[:2], bool)
+    if islands is not None and not islands_only:
+        count, labels = cv2.connectedComponents(islands.astype(np.uint8))
+        for i in range(1, count):
+            piece = labels == i
+            if unreliable[piece].mean() >= ISLAND_FAILED:
+                failed |= piece
+
+    def blobs(f: np.ndarray) -> np.ndarray:
+        found = fold_blobs(f)
+        if islands_only and islands is not None:
+            found &= islands
+        return found | failed
+
+    out, seeds = field, blobs(field)
     regions = np.zeros(field.shape[:2], bool)
     for _ in range(passes):
         if not seeds.any():
             break
-        out, region = _keep_once(out, seeds, camera, unreliable, reach, feather)
+        out, region = _keep_once(out, seeds, camera, unreliable, changing, reach, feather)
         regions |= region
-        seeds = fold_blobs(out)
+        seeds = blobs(out) & ~regions
     changed = np.abs(out - field).max(axis=-1) > 0.01
     return out, float(changed.mean()), float(seeds.mean()), regions
 
 
+def _disc(radius: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """Return ``mask`` (bool) with what it encloses filled (what the border cannot reach)."""
+    h, w = mask.shape
+    pad = np.zeros((h + 2, w + 2), np.uint8)
+    pad[1:-1, 1:-1] = mask
+    flood = pad.copy()
+    cv2.floodFill(flood, np.zeros((h + 4, w + 4), np.uint8), (0, 0), 1)
+    return (pad | (1 - flood))[1:-1, 1:-1].astype(bool)
+
+
+def whole_object(seeds: np.ndarray, reach: int, changing: np.ndarray | None
+                 ) -> np.ndarray:
+    """Return the whole objects the blobs of folds ``seeds`` lie on (bool, filled).
+
+    Each piece of ``changing`` (unlike both neighbours under the camera's motion: what
+    moves on its own; closed by a disc of ``reach / 2``) that touches a seed and barely
+    the frame's border (:func:`object_islands`) is an object: a spinner on a table is
+    one such island, arms, rings and all, where parallax (a road, a wall that moves
+    against the camera's model) runs along the border and is left out. With what it
+    encloses (its hub, a ring's face: they may look still).
+    """
+    islands = object_islands(changing, reach)
+    if islands is None:
+        return np.zeros(seeds.shape, bool)
+    return fill_holes(_touching(islands, seeds, reach))
+
+
+def object_islands(changing: np.ndarray | None, reach: int) -> np.ndarray | None:
+    """Return the pieces of ``changing`` (closed) that barely reach the frame's border.
+
+    A piece touching the border along more than :data:`_BORDER_CONTACT` of its length
+    (parallax of a road or a wall, the whole view) is left out; an object near the
+    border, its noise joining it there, is kept.
+    """
+    if changing is None:
+        return None
+    closed = cv2.morphologyEx(changing.astype(np.uint8), cv2.MORPH_CLOSE,
+                              _disc(max(1, reach // 2)))
+    count, labels = cv2.connectedComponents(closed)
+    ring = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
+    contact = np.bincount(ring, minlength=count)
+    # A piece that touches the border along more than this share of it is no island.
+    wide = np.flatnonzero(contact > _BORDER_CONTACT * ring.size)
+    return (labels > 0) & ~np.isin(labels, wide)
+
+
+def _touching(mask: np.ndarray, seeds: np.ndarray, reach: int) -> np.ndarray:
+    """Return the connected pieces of ``mask`` (closed by a disc of ``reach / 2``) on a seed."""
+    closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, _disc(max(1, reach // 2)))
+    count, labels = cv2.connectedComponents(closed)
+    on = np.unique(labels[seeds & (labels > 0)])
+    return np.isin(labels, on[on > 0])
+
+
 def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
-               unreliable: np.ndarray, reach: int, feather: float
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """One pass of :func:`keep_whole` around the blobs ``seeds``: the field, the region."""
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-    near = cv2.dilate(seeds.astype(np.uint8), disc).astype(bool)
-    region = (seeds | (near & unreliable)).astype(np.uint8)
+               unreliable: np.ndarray, changing: np.ndarray | None, reach: int,
+               feather: float) -> tuple[np.ndarray, np.ndarray]:
+    """One pass of :func:`keep_whole` around the blobs ``seeds``: the field, the region.
+
+    A seed on an island (:func:`whole_object`) takes the whole object with a margin of
+    ``reach / 3`` and blends out over ``feather`` px beyond it, so no seam crosses the
+    object. Any other seed takes the failed flow within ``reach`` of it, closed by a
+    7 px disc, blended over 6 px (as before islands were known: the whip pans over
+    texture, whose folds are on no island, were measured so).
+    """
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
-    region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, k)  # keep an object in one piece
-    weight = cv2.GaussianBlur(cv2.dilate(region, k).astype(np.float32), (0, 0), feather)
+    obj = cv2.dilate(whole_object(seeds, reach, changing).astype(np.uint8),
+                     _disc(max(1, reach // 3)))
+    rest = seeds & ~obj.astype(bool)
+    near = cv2.dilate(rest.astype(np.uint8), _disc(reach)).astype(bool)
+    patch = cv2.morphologyEx((rest | (near & unreliable)).astype(np.uint8), cv2.MORPH_CLOSE, k)
+    weight = np.maximum(
+        cv2.GaussianBlur(cv2.dilate(patch, k).astype(np.float32), (0, 0), 6.0),
+        cv2.GaussianBlur(cv2.dilate(obj, _disc(int(feather))).astype(np.float32), (0, 0),
+                         feather) if obj.any() else 0.0)
+    region = (patch | obj).astype(bool)
     weight = np.maximum(weight, region.astype(np.float32))[..., None]
     # What fills the region: the motion of its surroundings (a normalised Gaussian average
     # of the field outside it), else the camera's.
@@ -196,4 +298,4 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
     cam = np.broadcast_to(camera[:, None, :], field.shape)
     fill = np.where(den > 1e-3, num / np.maximum(den, 1e-3), cam)
     out = field * (1.0 - weight) + fill * weight
-    return out.astype(field.dtype), region.astype(bool)
+    return out.astype(field.dtype), region

@@ -23,6 +23,7 @@ as far) and ``object`` (a disc moving on its own); with layers the truth is per 
 Motions (all return ``D(t)`` in px, ``t`` in frame intervals, for a frame rate ``fps``):
 ``pan`` (constant velocity), ``stop`` (pan, then a sudden stop half way, the paper's
 Fig. 7), ``diagonal`` (pan in x and y), ``shake`` (hand shake: sinusoids of 1.5-9 Hz),
+``walk`` (3.6 times that shake on a pan),
 ``jello`` (drone vibration: 23-40 Hz, a few px, on a slow pan), or a JSON file
 ``{"time_unit": "frame" | "s", "t": [...], "dx": [...], "dy": [...]}`` interpolated
 by a cubic spline.

@@ -16,9 +16,13 @@ from scipy.interpolate import CubicSpline
 
 from ..errors import InputError, SettingsError
 
-__all__ = ["Motion", "MOTIONS", "gyro_samples", "motion_from_spec"]
+__all__ = ["Motion", "MOTIONS", "WALK_SHAKE", "gyro_samples", "motion_from_spec"]
 
-MOTIONS = ("pan", "stop", "diagonal", "shake", "jello", "whip")
+#: The walk's shake, in units of ``'shake'``'s: frame-to-frame jitter of 11.6 px per
+#: frame squared at 640x360 on a 2 px/frame pan, the walk of issue 31 (11.4).
+WALK_SHAKE = 3.6
+
+MOTIONS = ("pan", "stop", "diagonal", "shake", "walk", "jello", "whip")
 
 
 @dataclass(frozen=True)
@@ -32,7 +36,7 @@ class Motion:
     fps : float
         Frame rate, to turn Hz into cycles per frame.
     speed : float
-        Pan speed in px per frame (for pan, stop, diagonal, jello's drift).
+        Pan speed in px per frame (for pan, stop, diagonal, walk, jello's drift).
     amplitude : float
         Scale of the shake/jello amplitudes (1 = the defaults below).
     stop_at : float
@@ -53,16 +57,18 @@ class Motion:
     start_at: float = 2.0
 
     @classmethod
-    def from_rest(cls, vx: float, vy: float, start: float = 2.0, ramp: float = 1.0
-                  ) -> Motion:
+    def from_rest(cls, vx: float, vy: float, start: float = 2.0, ramp: float = 1.0,
+                  until: float = 14.0) -> Motion:
         """Still until ``start``, then accelerating over ``ramp`` frames to (vx, vy) px/frame.
+
+        ``until``: the last frame time it is defined for (knots every quarter frame).
 
         Examples
         --------
         >>> Motion.from_rest(10.0, 0.0)(np.array([1.0, 3.0, 5.0]))[:, 0].tolist()
         [0.0, 5.0, 25.0]
         """
-        t = np.arange(0, 14, 0.25)
+        t = np.arange(0, until, 0.25)
         s = np.where(t < start, 0.0, np.where(t < start + ramp, (t - start) ** 2 / (2 * ramp),
                                               ramp / 2 + (t - start - ramp)))
         return cls("spline", knots=(tuple(t), tuple(vx * s), tuple(vy * s)))
@@ -107,6 +113,9 @@ class Motion:
             x = sum(ax * np.sin(2 * np.pi * f * sec + ph) for f, ax, _, ph in waves)
             y = sum(ay * np.cos(2 * np.pi * f * sec + ph) for f, _, ay, ph in waves)
             return self.amplitude * np.stack([x, y], axis=-1)
+        if self.kind == "walk":  # hand-held while walking: shake on a slow pan
+            shake = Motion("shake", fps=self.fps, amplitude=WALK_SHAKE * self.amplitude)(t)
+            return shake + np.stack([self.speed * t, z], axis=-1)
         if self.kind == "jello":
             sec = t / self.fps
             vib = ((23.0, 2.0, 1.0, 0.4), (31.0, 1.0, 2.0, 1.7), (39.0, 1.0, 0.5, 2.3))
