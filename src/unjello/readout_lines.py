@@ -198,7 +198,6 @@ def _tracks(segs: list[np.ndarray], moves: list[np.ndarray]) -> list[list[tuple[
                 nxt[pairs[i]] = track
             else:
                 done.append(track)
-        done.extend(open_tracks.values())
         open_tracks = nxt
     done.extend(open_tracks.values())
     return done

@@ -184,10 +184,9 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     failed = np.zeros(field.shape[:2], bool)
     if islands is not None and not islands_only:
         count, labels = cv2.connectedComponents(islands.astype(np.uint8))
-        for i in range(1, count):
-            piece = labels == i
-            if unreliable[piece].mean() >= ISLAND_FAILED:
-                failed |= piece
+        share = (np.bincount(labels[unreliable], minlength=count)
+                 / np.maximum(np.bincount(labels.ravel(), minlength=count), 1))
+        failed = np.isin(labels, np.flatnonzero(share >= ISLAND_FAILED)) & islands
 
     def blobs(f: np.ndarray) -> np.ndarray:
         found = fold_blobs(f)
@@ -235,7 +234,7 @@ def whole_object(seeds: np.ndarray, reach: int, changing: np.ndarray | None
     islands = object_islands(changing, reach)
     if islands is None:
         return np.zeros(seeds.shape, bool)
-    return fill_holes(_touching(islands, seeds, reach))
+    return fill_holes(_touching(islands, seeds))
 
 
 def object_islands(changing: np.ndarray | None, reach: int) -> np.ndarray | None:
@@ -257,10 +256,9 @@ def object_islands(changing: np.ndarray | None, reach: int) -> np.ndarray | None
     return (labels > 0) & ~np.isin(labels, wide)
 
 
-def _touching(mask: np.ndarray, seeds: np.ndarray, reach: int) -> np.ndarray:
-    """Return the connected pieces of ``mask`` (closed by a disc of ``reach / 2``) on a seed."""
-    closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, _disc(max(1, reach // 2)))
-    count, labels = cv2.connectedComponents(closed)
+def _touching(mask: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """Return the connected pieces of ``mask`` that a seed lies on."""
+    count, labels = cv2.connectedComponents(mask.astype(np.uint8))
     on = np.unique(labels[seeds & (labels > 0)])
     return np.isin(labels, on[on > 0])
 

@@ -38,7 +38,7 @@ from ..errors import InputError, SettingsError
 from ..io.frames import read_image, write_image
 from ..io.source import FrameSource, read_frames
 from ..pipeline import Corrector
-from ..readout import estimate_readout_file
+from ..readout import estimate_readout
 from ..timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
 from ..trajectory import FrameMotion, Trajectory
 
@@ -196,11 +196,14 @@ class PreviewClip:
         self._dir = tempfile.TemporaryDirectory(prefix="unjello-preview-")
         self.count = 0
         shape: tuple[int, ...] = ()
+        first: list[np.ndarray] = []  # for the readout estimate, read once
         for img in read_frames(self.src):
             if self.count >= max_frames:
                 break
             write_image(Path(self._dir.name) / f"{self.count:06d}.png", img)
             shape = img.shape
+            if len(first) < _ESTIMATE_FRAMES:
+                first.append(img)
             self.count += 1
         if self.count < 2:
             self._dir.cleanup()
@@ -211,9 +214,8 @@ class PreviewClip:
         self.fps = resolved.fps
         self.resolved = resolved
         # What the footage says of the readout, marked on the page's slider.
-        self.estimate = resolved.estimate or estimate_readout_file(
-            self.src, direction=resolved.timing.direction, fps=resolved.fps,
-            max_frames=_ESTIMATE_FRAMES)
+        self.estimate = resolved.estimate or estimate_readout(
+            first, direction=resolved.timing.direction, max_frames=_ESTIMATE_FRAMES)
         self.initial = PreviewSettings(config.method, float(resolved.timing.readout),
                                        resolved.timing.direction, resolved.timing.reference,
                                        not config.dense.per_pixel)
