@@ -185,7 +185,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
             else:
                 sources["readout"] = "default"
                 messages.append(f"warning: the footage cannot tell the readout "
-                                f"({est.note or 'too still, too uniform or too flat'}; "
+                                f"({est.note or 'its motion and lines do not change enough'}; "
                                 f"confidence {est.confidence:.2f}); using {est.readout:g}")
         else:
             readout, sources["readout"] = 1.0, "default"

@@ -284,7 +284,8 @@ class ReadoutEstimate:
     def describe(self) -> str:
         """One line: the readout and what it rests on, or why it is unknown."""
         if not self.reliable:
-            why = self.note or "the footage is too still, too uniform or too flat to tell"
+            why = self.note or ("neither its motion nor its straight lines change enough to "
+                                "tell (a steady pan, two frames, a still or flat view)")
             return (f"readout unknown: {why} (confidence {self.confidence:.2f}); "
                     f"default {self.readout:g}")
         rest = {"motion": f"{self.model} motion model", "lines": "the lean of straight lines",
