@@ -51,6 +51,25 @@ def test_a_field_is_stored_coarsely_and_read_back_smoothly(tmp_path):
     assert err[:, 4:-4].max() < 0.01 and err.max() < 0.1  # linear inside, held at the ends
 
 
+def test_a_front_layer_is_stored_with_the_field_and_read_back(tmp_path):
+    traj = _traj(with_field=True)
+    h, w = 24, 40
+    layer = np.zeros((h, w, 3), np.float32)
+    layer[..., 0] = np.linspace(-2, 2, w)[None]  # a backward displacement
+    layer[4:20, 8:32, 2] = 1.0  # the object's weight
+    traj.frames[2] = FrameMotion(**{**traj.frames[2].__dict__, "front": (layer,)})
+    traj.save(tmp_path / "m.json")
+    doc = json.loads((tmp_path / "m.json").read_text())
+    stored = doc["frames"][2]["front"][0]
+    assert stored["shape"] == [h, w]
+    assert np.asarray(stored["layer"]).shape == (h // FIELD_STEP, w // FIELD_STEP, 3)
+    assert "front" not in doc["frames"][1]
+    back = Trajectory.load(tmp_path / "m.json").frames[2].front
+    assert len(back) == 1 and back[0].shape == (h, w, 3)
+    assert np.abs(back[0][:, 4:-4, 0] - layer[:, 4:-4, 0]).max() < 0.01
+    assert back[0][12, 20, 2] > 0.9 and back[0][0, 0, 2] < 0.5  # every 8 px: softened
+
+
 def test_the_streaming_writer_writes_the_same_document(tmp_path):
     traj = _traj()
     traj.save(tmp_path / "a.json")

@@ -146,6 +146,48 @@ def test_field_maps_on_a_coarse_grid_take_frame_pixels():
     assert np.allclose(fy - np.arange(60)[:, None], -3.0, atol=1e-4)
 
 
+def test_a_front_layer_shows_the_turned_object_where_it_lands():
+    """A bar turned back by its rotation lands partly on what the frame shows as
+    background; the forward field alone finds that background there (the bar's tip is
+    cut off), the front layer finds the bar."""
+    import cv2
+
+    from unjello.motion.spin import Spin, spin_field, spin_source
+    from unjello.trajectory import FrameMotion
+    from unjello.warp import frame_maps
+
+    h, w = 80, 100
+    yy, xx = np.mgrid[0:h, 0:w]
+    bar = (np.abs(xx - 50) < 4) & (np.abs(yy - 40) < 35)  # the object, upright
+    image = np.where(bar, 200.0, 50.0).astype(np.float32)
+
+    def still(t):
+        return np.zeros((np.asarray(t).size, 2))
+
+    spin = Spin(np.array([50.0, 40.0]), 0.6, 1.0, 5.0)  # turned back by up to 0.3 rad
+    rotation = spin_field(spin, (h, w), still, 0.5, 1.0)
+    weight = bar.astype(np.float32)
+    field = (rotation * weight[..., None]).astype(np.float32)  # background: no motion
+    front = np.dstack([spin_source(spin, (h, w), still, 0.5, 1.0), weight])
+    alone = FrameMotion(0, 0.0, np.zeros((h, 2)), np.zeros((h, 2)), field=field)
+    layered = FrameMotion(0, 0.0, np.zeros((h, 2)), np.zeros((h, 2)), field=field,
+                          front=(front,))
+    # Where the turned bar's ends land: s - D(s) for its pixels.
+    p = np.stack([xx, yy], axis=-1)[bar] - rotation[bar]
+    lands = np.zeros((h, w), bool)
+    lands[np.clip(np.round(p[:, 1]).astype(int), 0, h - 1),
+          np.clip(np.round(p[:, 0]).astype(int), 0, w - 1)] = True
+    tips = lands & ~cv2.dilate(bar.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    assert tips.sum() > 20
+
+    def shown(motion):
+        mx, my = frame_maps(motion, h, w)[0]
+        return cv2.remap(image, mx, my, cv2.INTER_LINEAR)
+
+    assert shown(alone)[tips].mean() < 100  # cut off: the background (measured 50)
+    assert shown(layered)[tips].mean() > 170  # the bar (measured 178; its edge 50-164)
+
+
 def test_undistorting_reads_the_same_in_every_scan_direction(scene):
     """--undistort is composed with the correction's maps in the frames' top-bottom
     orientation; the fisheye model is radial, so with no motion every scan direction

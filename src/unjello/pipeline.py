@@ -452,4 +452,5 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
 
 def _light(fm: FrameMotion) -> FrameMotion:
     """Drop the per-pixel field of a frame kept for the whole clip (flat memory)."""
-    return fm if fm.field is None else dataclasses.replace(fm, field=None, neighbours=())
+    return fm if fm.field is None else dataclasses.replace(fm, field=None, front=(),
+                                                           neighbours=())

@@ -24,7 +24,9 @@ lists of ``[x, y]`` pairs per scanline (top-bottom orientation), and for dense m
 ``field`` (the per-pixel displacement every 8 pixels, ``[row][col][x, y]``) with its
 full ``field_shape`` ``[h, w]``; when stabilised, ``shift`` ``[x, y]`` and ``zoom`` (the
 :class:`Reframe` the warp applied on top of the correction), ``angle`` (radians) and
-``path`` (the measured camera path: x, y, roll).
+``path`` (the measured camera path: x, y, roll); where a rotation was fitted to a
+spinning object, ``front``: one entry per object, each ``{"shape": [h, w], "layer":
+[row][col][dx, dy, weight]}`` every 8 pixels (:attr:`FrameMotion.front`).
 """
 
 from __future__ import annotations
@@ -109,6 +111,15 @@ class FrameMotion:
         the full frame but possibly sampled at a lower resolution (dense motion is
         smooth; consumers interpolate it); when present it is what the warper applies,
         and ``displacement`` is its per-row median.
+    front : tuple of ndarray, optional
+        Dense methods: one layer per spinning object turned back by a fitted rotation,
+        shown in front of ``field``, each of shape (hf, wf, 3) on the field's grid: the
+        rotation's backward displacement ``(dx, dy)`` (the output pixel ``p`` shows the
+        frame's ``p + (dx, dy)``, in pixels of the full frame) and the object's weight
+        (0-1) at each pixel of the frame. Where the rotated object lands, or where it
+        was, the picture takes the rotation's source
+        (:func:`unjello.warp.frame_maps`): a forward ``field`` alone cannot show a
+        turned-back tip over the background it lands on.
     neighbours : tuple of (int, ndarray), optional
         Dense methods: the flow from this frame to the frame ``offset`` away, shape
         (hf, wf, 2) in pixels of its own (hf, wf) grid, for filling what this frame does
@@ -129,6 +140,7 @@ class FrameMotion:
     folds: float = 0.0
     spun: float = 0.0
     field: np.ndarray | None = None
+    front: tuple[np.ndarray, ...] = ()
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
     reframe: Reframe = Reframe()
 
@@ -190,22 +202,24 @@ class FrameMotion:
             # The field's grid may be coarser than the frame (the dense method's working
             # copy): FIELD_STEP frame pixels are this many of its samples.
             step = FIELD_STEP * h / self.displacement.shape[0]
-            small = (cv2.resize(self.field.astype(np.float32),
-                                (max(1, round(w / step)), max(1, round(h / step))),
-                                interpolation=cv2.INTER_AREA)
-                     if step > 1 else np.asarray(self.field, np.float32))
+            small = _every(self.field, step)
             d["field_shape"] = [h, w]
             d["field"] = np.round(small, 3).tolist()
+            if self.front:
+                d["front"] = [{"shape": [h, w], "layer": np.round(_every(layer, step), 3).tolist()}
+                              for layer in self.front]
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> FrameMotion:
         """Build a frame from :meth:`to_dict`'s output."""
-        field = None
-        if d.get("field") is not None:
-            h, w = (int(v) for v in d["field_shape"])
-            small = np.asarray(d["field"], dtype=np.float32)
-            field = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+        def grid(values: list, shape: list) -> np.ndarray:
+            h, w = (int(v) for v in shape)
+            return cv2.resize(np.asarray(values, dtype=np.float32), (w, h),
+                              interpolation=cv2.INTER_LINEAR)
+
+        field = grid(d["field"], d["field_shape"]) if d.get("field") is not None else None
+        front = tuple(grid(f["layer"], f["shape"]) for f in d.get("front", ()))
         return cls(
             index=int(d["index"]),
             start=float(d["start"]),
@@ -219,10 +233,21 @@ class FrameMotion:
             folds=float(d.get("folds", 0.0)),
             spun=float(d.get("spun", 0.0)),
             field=field,
+            front=front,
             reframe=Reframe(tuple(float(v) for v in d.get("shift", (0.0, 0.0))),  # type: ignore[arg-type]
                             float(d.get("zoom", 1.0)), float(d.get("angle", 0.0)),
                             tuple(float(v) for v in d.get("path", (0.0, 0.0, 0.0)))),  # type: ignore[arg-type]
         )
+
+
+def _every(values: np.ndarray, step: float) -> np.ndarray:
+    """``values`` (h, w, c) averaged down to one sample every ``step`` of them."""
+    h, w = values.shape[:2]
+    if step <= 1:
+        return np.asarray(values, np.float32)
+    return cv2.resize(values.astype(np.float32),
+                      (max(1, round(w / step)), max(1, round(h / step))),
+                      interpolation=cv2.INTER_AREA)
 
 
 @dataclass

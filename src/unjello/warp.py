@@ -33,7 +33,7 @@ from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
-           "splat", "remap", "apply_maps", "fill_holes", "field_maps",
+           "splat", "remap", "apply_maps", "fill_holes", "field_maps", "front_maps",
            "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "compose_maps"]
 
 Fill = Literal["black", "nearest"]
@@ -303,6 +303,41 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
     return mx, my
 
 
+def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
+               frame: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Show a layer in front of backward maps: a spinning object over its background.
+
+    ``front`` (h, w, 3) is the layer's backward displacement and its weight at each pixel
+    of the frame (:attr:`~unjello.trajectory.FrameMotion.front`). Output pixel ``p``
+    takes the layer's source ``q = p + front(p)[:2]`` with the weight the object has at
+    ``q`` -- it lands there -- or at ``p`` itself -- it was there and has turned away:
+    the layer's source then shows what lay beside it rather than the object a second
+    time. Elsewhere ``maps`` stay.
+
+    Examples
+    --------
+    A layer that takes every pixel from one to its right, for an object covering the
+    right half of a 4 x 4 frame:
+
+    >>> gx, gy = pixel_grid(4, 4)
+    >>> layer = np.zeros((4, 4, 3), np.float32); layer[..., 0] = 1.0; layer[:, 2:, 2] = 1.0
+    >>> front_maps((gx, gy), layer)[0][0].tolist()
+    [0.0, 2.0, 3.0, 4.0]
+    """
+    h, w = front.shape[:2]
+    f = np.ascontiguousarray(front[..., :2], np.float32)
+    if frame is not None and frame != (h, w):
+        f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
+    gx, gy = pixel_grid(h, w)
+    qx, qy = gx + f[..., 0], gy + f[..., 1]
+    weight = np.ascontiguousarray(front[..., 2], np.float32)
+    lands = cv2.remap(weight, qx, qy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=0)
+    alpha = np.maximum(lands, weight)
+    mx, my = maps
+    return mx + alpha * (qx - mx), my + alpha * (qy - my)
+
+
 def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps computed at one resolution, for a plane of another (pixel centres)."""
@@ -395,6 +430,8 @@ def frame_maps(motion: FrameMotion, height: int, width: int
     """
     if motion.field is not None:
         maps = field_maps(motion.field, frame=(height, width))
+        for layer in motion.front:
+            maps = front_maps(maps, layer, frame=(height, width))
         return reframe_maps(maps, motion.reframe, (height, width)), True
     maps = remap_maps(motion.displacement, width)
     return reframe_maps(maps, motion.reframe, (height, width)), False

@@ -41,10 +41,11 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
     _, traj = correct_frames(spin, SensorTiming(1.0))
     # Measured: blob folds 0.29, 0.23, 0.58, 0.38, 0.18, 0.03 % as estimated; frames 0-4
     # given the motion around them, each spinner whole (the island of what moves unlike
-    # both neighbours: issue 31), leaving none. Frame 5 (0.03 %, its folds on no island:
-    # the floor) is left alone.
+    # both neighbours: issue 31), leaving none. Frame 5 (0.03 %, its folds on no island)
+    # keeps them whole because frame 4 did and their flow fails again (35 %).
     kept = [f.index for f in traj.frames if f.kept > 0]
-    assert kept == [0, 1, 2, 3, 4]
+    assert kept == [0, 1, 2, 3, 4, 5]
+    assert "the frame before" in traj.frames[5].note
     assert "given the motion around it" in traj.frames[2].note
     assert all(f.folds < FOLD_WARNING for f in traj.frames)
     # Frame 3: the pink spinner turned back whole by a rotation fitted per scanline
@@ -101,3 +102,52 @@ def test_a_fold_on_part_of_an_object_keeps_all_of_it():
                                             changing=changing)
     assert regions[disc].all() and left == 0.0
     assert np.abs(whole[disc]).max() < 0.05  # the whole object on the camera's motion
+
+
+def test_an_object_kept_whole_before_is_kept_whole_again():
+    """A spinning object keeps spinning: the clip's last frame, seen from one side, may
+    not fold, but an island whose flow failed on a third of it, on an object the frame
+    before kept whole, is kept whole again; without that frame's word, left alone."""
+    from unjello.motion.safety import keep_whole
+
+    h, w = 120, 160
+    yy, xx = np.mgrid[0:h, 0:w]
+    disc = np.hypot(xx - 80, yy - 60) < 30
+    field = np.zeros((h, w, 2), np.float32)
+    field[disc, 0] = 1.5 * np.sin((xx[disc] - 50) / 5.0)  # wrong, but folding nowhere
+    assert fold_share(field) == 0.0
+    unreliable = disc & (xx < 70)  # a third of it failed its check
+    camera = np.zeros((h, 2), np.float32)
+    before = np.hypot(xx - 82, yy - 61) < 28  # where the frame before kept it
+    whole, kept, left, regions = keep_whole(field, camera, unreliable, changing=disc,
+                                            islands_only=True, carried=before,
+                                            from_folds=False)
+    assert regions[disc].all() and kept > 0.1 and left == 0.0
+    assert np.abs(whole[disc]).max() < 0.05
+    alone = keep_whole(field, camera, unreliable, changing=disc, islands_only=True,
+                       from_folds=False)
+    assert alone[1] == 0.0 and np.array_equal(alone[0], field)
+
+
+def test_a_large_kept_region_is_filled_without_a_step():
+    """Deep inside a region wider than the surroundings' reach the camera's motion takes
+    over gradually: the fill's largest step between neighbouring pixels stays a small
+    share of the two motions' difference (a switch at a threshold made a 3 px step, a
+    crease across the real spinners)."""
+    import cv2
+
+    from unjello.motion.safety import keep_whole
+
+    h, w = 200, 260
+    yy, xx = np.mgrid[0:h, 0:w]
+    blob = np.hypot(xx - 130, yy - 100) < 85
+    field = np.full((h, w, 2), 3.0, np.float32)  # the surroundings move by 3 px
+    field[blob] = 0.0
+    field[90:110, 120:140, 0] += 5.0 * np.arange(20, dtype=np.float32)  # torn apart
+    camera = np.zeros((h, 2), np.float32)  # the camera's motion: none
+    whole, _, _, regions = keep_whole(field, camera, blob, changing=blob)
+    inner = cv2.erode(regions.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool)
+    down, across = (np.abs(np.diff(whole[..., 0], axis=k)) for k in (0, 1))
+    step = max(down[inner[1:] & inner[:-1]].max(), across[inner[:, 1:] & inner[:, :-1]].max())
+    assert step < 0.3  # measured 0.14 (3.0 with the threshold)
+    assert whole[100, 130, 0] == pytest.approx(0.0, abs=0.05)  # its middle: the camera's

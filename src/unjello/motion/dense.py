@@ -151,6 +151,8 @@ class DenseMethod:
         self._full: tuple[int, int] = (0, 0)
         # The last frame's spinning objects: (centre at its reference time, omega, that time)
         self._spins: list[tuple[np.ndarray, float, float]] = []
+        # The last frame's objects kept whole (bool, working grid), or None.
+        self._kept: np.ndarray | None = None
 
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at time ``start``."""
@@ -370,50 +372,62 @@ class DenseMethod:
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        field, folds, kept, spun, said = self._safe_field(
+        field, folds, kept, spun, said, fronts = self._safe_field(
             fr, cam_disp[:, None, :] - field_resid, cam_disp, fallback, entering, float(t_ref),
             c_at, u_rows.mean(axis=0))
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
         field *= scale
+        for layer in fronts:  # their displacements too; the weight stays
+            layer[..., :2] *= scale
         neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
-                           spun=spun, field=field, neighbours=neighbours)
+                           spun=spun, field=field, front=fronts, neighbours=neighbours)
 
     def _safe_field(self, fr: _Frame, field: np.ndarray, cam_disp: np.ndarray,
                     fallback: np.ndarray, entering: np.ndarray, t_ref: float,
                     c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
-                    ) -> tuple[np.ndarray, float, float, float, str]:
+                    ) -> tuple[np.ndarray, float, float, float, str, tuple[np.ndarray, ...]]:
         """Make the per-pixel field safe: no fold or tear it can avoid.
 
         Where the field folds in blobs, the region gets the motion around it
         (:func:`~unjello.motion.safety.keep_whole`, if that folds less); such regions and
         the objects whose flow failed (:func:`~unjello.motion.safety.failed_blobs`) are
         tried as spinning objects (:meth:`_turn_back_spinning`). Returns the field, its
-        folds, the share kept whole, the share spun and what to say.
+        folds, the share kept whole, the share spun, what to say and the spinning
+        objects' layers in front of the field.
         """
         h, w = field.shape[:2]
         notes = []
         folds, kept = fold_share(field), 0.0
         regions = np.zeros((h, w), bool)
-        if folds > KEEP_ISLAND:
+        carried, self._kept = self._kept, None
+        if folds > KEEP_ISLAND or carried is not None:
+            # A frame that folds, or one after a frame that kept objects whole: an object
+            # whose flow failed then and fails now is kept whole again (a spinning
+            # object keeps spinning), even where this frame's map barely folds.
             whole, share, after, regions = keep_whole(
                 field, cam_disp, fallback, changing=self._changing(fr, c_at),
-                islands_only=folds <= KEEP_WHOLE)
-            if after < folds:  # never worse by its own measure
+                islands_only=folds <= KEEP_WHOLE, carried=carried,
+                from_folds=folds > KEEP_ISLAND)
+            if share > 0 and (after < folds or (carried is not None and after <= folds)):
                 field, folds, kept = whole, after, share
+                self._kept = regions
                 notes.append(f"{100 * kept:.0f}% given the motion around it (the per-pixel "
-                             "motion folded or tore)")
+                             "motion folded or tore, or its object's did in the frame "
+                             "before)")
+            else:
+                regions = np.zeros((h, w), bool)
         regions |= failed_blobs(fallback & ~entering)
-        field, folds, spun, said = self._turn_back_spinning(
+        field, folds, spun, said, fronts = self._turn_back_spinning(
             fr, field, folds, regions, t_ref, c_at, u_mean)
         notes.append(said)
         if folds > FOLD_WARNING:
             notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
-        return field, folds, kept, spun, "; ".join(n for n in notes if n)
+        return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts
 
     def _changing(self, fr: _Frame, c_at: Callable[[np.ndarray], np.ndarray]
                   ) -> np.ndarray | None:
@@ -448,20 +462,20 @@ class DenseMethod:
     def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
                             regions: np.ndarray, t_ref: float,
                             c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
-                            ) -> tuple[np.ndarray, float, float, str]:
+                            ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...]]:
         """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
 
         With a neighbour on each side, or one and last frame's rotations to check against
         (one side alone tells a rotation's aliases apart too poorly), and only if the map
         then folds nowhere else. Returns the field, its folds
         (along the spinning objects' edges, occlusion boundaries, not counted), the share
-        spun and a note.
+        spun, a note and the rotations' layers in front of the field.
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
                   if abs(f.index - fr.index) == 1]
         if not regions.any() or not others or (len(others) < 2 and not self._spins):
             self._spins = []
-            return field, folds, 0.0, ""
+            return field, folds, 0.0, "", ()
 
         def track(t: np.ndarray) -> np.ndarray:
             """Return what carries an object: the camera's path plus the row velocity."""
@@ -470,22 +484,22 @@ class DenseMethod:
         # Last frame's rotations, carried to this frame's reference time.
         hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
                  for c, om, t in self._spins]
-        spinning, spins, weight, fitted = keep_spinning(
+        spinning, spins, weight, fitted, fronts = keep_spinning(
             field, fr.image, others, regions, track, t_ref, self.timing.readout, hints=hints)
         self._spins = [(s.centre, s.omega, fr.start + t_ref) for s in fitted]
         if not spins:
-            return field, folds, 0.0, ""
+            return field, folds, 0.0, "", ()
         spun_px = (weight > 0.5).astype(np.uint8)
         k = np.ones((7, 7), np.uint8)
         edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
         after = float((fold_blobs(spinning) & ~edges).mean())
         if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
-            return field, folds, 0.0, ""
+            return field, folds, 0.0, "", ()
         spun = float(spun_px.mean())
         turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
         return spinning, after, spun, (
             f"{len(spins)} spinning object(s) turned back by a rotation fitted per scanline "
-            f"({turns} turns per frame, {100 * spun:.0f}% of the picture)")
+            f"({turns} turns per frame, {100 * spun:.0f}% of the picture)"), fronts
 
     def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]

@@ -35,6 +35,12 @@ ISLAND_FAILED = 0.2
 
 _BORDER_CONTACT = 0.08
 
+#: What the camera's motion weighs in a kept region's fill against its surroundings'
+#: (their Gaussian weight: 0.5 at the region's edge, 1e-4 about four ``reach`` inside).
+#: Measured: 0.02 let the lagging camera model into the whip pans' patches (brick
+#: 0.060x -> 0.066x); 1e-4 keeps them as they were and the spinners' creases away.
+_CAMERA_WEIGHT = 1e-4
+
 
 
 def map_jacobian(field: np.ndarray) -> np.ndarray:
@@ -135,6 +141,7 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
 
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                changing: np.ndarray | None = None, islands_only: bool = False,
+               carried: np.ndarray | None = None, from_folds: bool = True,
                reach: int = 24, feather: float = 12.0, passes: int = 3
                ) -> tuple[np.ndarray, float, float, np.ndarray]:
     """Give the places where the map folds or tears in blobs the motion around them.
@@ -161,6 +168,13 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     islands_only : bool
         Only the folds inside such an object, one that does not reach the border, count
         (a map that folds a little elsewhere folds along occlusions: left alone).
+    carried : ndarray of bool, shape (h, w), optional
+        The previous frame's regions kept whole: an island on one of them whose flow
+        failed on :data:`ISLAND_FAILED` of it seeds too (a spinning object keeps
+        spinning, though this frame's map may not fold: the clip's last frame, seen
+        from one side).
+    from_folds : bool
+        Whether the blobs of folds seed at all (False: only ``carried`` islands).
     reach, feather : float
         Distance (px) over which failed flow joins a blob's region, and the blend's width.
     passes : int
@@ -180,16 +194,20 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     """
     islands = object_islands(changing, reach)
     # Where the frame folds in blobs anyway, an island whose flow failed on much of it
-    # cannot be trusted either (a second spinner, torn without folding): it all seeds.
+    # cannot be trusted either (a second spinner, torn without folding): it all seeds;
+    # so does one on an object kept whole in the frame before.
     failed = np.zeros(field.shape[:2], bool)
-    if islands is not None and not islands_only:
+    if islands is not None and (carried is not None or not islands_only):
         count, labels = cv2.connectedComponents(islands.astype(np.uint8))
         share = (np.bincount(labels[unreliable], minlength=count)
                  / np.maximum(np.bincount(labels.ravel(), minlength=count), 1))
-        failed = np.isin(labels, np.flatnonzero(share >= ISLAND_FAILED)) & islands
+        bad = share >= ISLAND_FAILED
+        if islands_only or not from_folds:
+            bad &= np.bincount(labels[carried], minlength=count) > 0
+        failed = np.isin(labels, np.flatnonzero(bad)) & islands
 
     def blobs(f: np.ndarray) -> np.ndarray:
-        found = fold_blobs(f)
+        found = fold_blobs(f) if from_folds else np.zeros(f.shape[:2], bool)
         if islands_only and islands is not None:
             found &= islands
         return found | failed
@@ -294,6 +312,9 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
     num = cv2.GaussianBlur(np.ascontiguousarray(field * outside[..., None], np.float32),
                            (0, 0), sigma)
     cam = np.broadcast_to(camera[:, None, :], field.shape)
-    fill = np.where(den > 1e-3, num / np.maximum(den, 1e-3), cam)
+    # Deep inside a large region, where the surroundings weigh little, the camera's
+    # motion takes over -- gradually: switched at a threshold, the two differed by a few
+    # px along a line across the objects (the real spinners' creases).
+    fill = (num + _CAMERA_WEIGHT * cam) / (den + _CAMERA_WEIGHT)
     out = field * (1.0 - weight) + fill * weight
     return out.astype(field.dtype), region

@@ -21,9 +21,10 @@ object turns by ``omega`` times the interval, which a symmetric object (three bl
 cannot tell from ``omega`` plus a multiple of its symmetry; within the frame it turns by
 ``omega`` times the readout across its height, which tells them apart -- so the search
 covers many turns per frame, as real propellers make. :func:`spin_field` is the
-correction of the fitted rotation, :func:`spin_support` the pixels it explains better
-than the motion around them (a propeller's region also shows the background between its
-blades).
+correction of the fitted rotation, :func:`spin_source` its inverse (where each output
+pixel's content was: the layer the warper shows in front of the rest),
+:func:`spin_support` the pixels it explains better than the motion around them (a
+propeller's region also shows the background between its blades).
 """
 
 from __future__ import annotations
@@ -36,8 +37,8 @@ import numpy as np
 
 from .safety import fill_hull
 
-__all__ = ["Spin", "fit_spin", "spin_field", "spin_support", "spin_regions", "keep_spinning",
-           "MAX_SPIN"]
+__all__ = ["Spin", "fit_spin", "spin_field", "spin_source", "spin_support", "spin_regions",
+           "keep_spinning", "MAX_SPIN", "WHOLE"]
 
 #: The search covers rotations up to this many radians per frame interval either way
 #: (two turns: 60 rev/s at 30 fps).
@@ -51,6 +52,9 @@ MOVING = 10.0
 #: A hole in the pixels a rotation explains is filled (taken as part of the object) up to
 #: this share of their area.
 HOLE = 0.02
+#: An object whose rotation explains at least this share of it (its hull) takes the
+#: rotation whole: what it leaves out is its rim and seams, where a cut shows.
+WHOLE = 0.85
 
 Track = Callable[[np.ndarray], np.ndarray]
 
@@ -302,6 +306,28 @@ def spin_field(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     return (s - p).astype(np.float32)
 
 
+def spin_source(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
+                readout: float, iterations: int = 8) -> np.ndarray:
+    """Return the rotation's backward displacement ``s - p`` at every output pixel ``p``.
+
+    The inverse of :func:`spin_field`: ``s = C(t_s) + R(-omega (t_ref - t_s)) (p -
+    C(t_ref))``, whose time ``t_s`` is that of the scanline ``s`` lies on -- solved by
+    iterating on that scanline alone (it converges while the rim moves less than a row
+    per row of readout, as :func:`fit_spin`'s predictions do).
+    """
+    h, w = shape
+    row_time = readout / h
+    c_ref = np.asarray(track(np.array([t_ref])), np.float64)[0]
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    rel = np.stack([xs, ys], axis=-1) - spin.centre
+    y = ys.copy()
+    for _ in range(iterations):
+        t = row_time * y
+        src = spin.centre + _at(track, t) - c_ref + _rotate(rel, -spin.omega * (t_ref - t))
+        y = np.clip(src[..., 1], 0, h - 1)
+    return (src - np.stack([xs, ys], axis=-1)).astype(np.float32)
+
+
 def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
                  region: np.ndarray, spin: Spin, track: Track, t_ref: float,
                  readout: float, window: int = 3) -> np.ndarray:
@@ -388,8 +414,13 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     frame found the same rotation (``hints``: within 15 % and a quarter of the radius)
     -- and turns its rim by a pixel or more per frame. Its correction
     (:func:`spin_field`) then replaces ``field`` with the weight of
-    :func:`spin_support`; elsewhere ``field`` (the surroundings' motion, from
-    :func:`unjello.motion.safety.keep_whole`) stays.
+    :func:`spin_support` -- or over its whole hull, where the rotation explains
+    :data:`WHOLE` of it (a spinner: what it leaves out is its rim and seams, where a cut
+    shows); elsewhere ``field`` (the surroundings' motion, from
+    :func:`unjello.motion.safety.keep_whole`) stays. And since a turned-back arm lands
+    on what the frame shows as background, which a forward field cannot show it over,
+    the rotation's source (:func:`spin_source`) and the weight come back as a layer in
+    front of the field.
 
     Returns
     -------
@@ -400,9 +431,12 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         The rotations' weight at each pixel (0 where none was used).
     candidates : list of Spin
         Every rotation fitted, used or not: the next frame's ``hints``.
+    fronts : tuple of ndarray
+        Per rotation used, its layer in front of ``field`` (:attr:`FrameMotion.front
+        <unjello.trajectory.FrameMotion>`): :func:`spin_source` and the weight.
     """
     labels = spin_regions(seeds, image, others, track, t_ref, readout)
-    out, spins, candidates = field, [], []
+    out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
     for i in range(1, int(labels.max()) + 1):
         region = labels == i
@@ -438,9 +472,14 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         candidates.append(spin)
         if not good(spin) or abs(spin.omega) * radius < 1.0:
             continue
-        weight = spin_support(image, others, region, spin, track, t_ref, readout)[..., None]
+        weight = spin_support(image, others, region, spin, track, t_ref, readout)
+        if (weight > 0.5).sum() >= WHOLE * region.sum():
+            weight = cv2.GaussianBlur(region.astype(np.float32), (0, 0), 1.0)
+        weight = weight[..., None]
         out = out * (1 - weight) + spin_field(spin, seeds.shape, track, t_ref,
                                               readout) * weight
         used = np.maximum(used, weight[..., 0])
         spins.append(spin)
-    return out.astype(field.dtype), spins, used, candidates
+        fronts.append(np.dstack([spin_source(spin, seeds.shape, track, t_ref, readout),
+                                 weight]).astype(np.float32))
+    return out.astype(field.dtype), spins, used, candidates, tuple(fronts)
