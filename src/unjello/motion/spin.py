@@ -403,7 +403,8 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
                   track: Track, t_ref: float, readout: float, *,
                   hints: Sequence[tuple[np.ndarray, float]] = (), min_gain: float = 3.0,
                   steady_gain: float = 1.6, min_area: int = 400
-                  ) -> tuple[np.ndarray, list[Spin], np.ndarray, list[Spin]]:
+                  ) -> tuple[np.ndarray, list[Spin], np.ndarray, list[Spin],
+                             tuple[np.ndarray, ...]]:
     """Give each failed object that a rotation explains that rotation's correction.
 
     Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px) is
