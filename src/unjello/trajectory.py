@@ -116,8 +116,8 @@ class FrameMotion:
         shown in front of ``field``, each of shape (hf, wf, 3) on the field's grid: the
         rotation's backward displacement ``(dx, dy)`` (the output pixel ``p`` shows the
         frame's ``p + (dx, dy)``, in pixels of the full frame) and the object's weight
-        (0-1) at each pixel of the frame. Where the rotated object lands, or where it
-        was, the picture takes the rotation's source
+        (0-1) at each pixel of the frame. Where the rotated object lands the picture
+        takes the rotation's source
         (:func:`unjello.warp.frame_maps`): a forward ``field`` alone cannot show a
         turned-back tip over the background it lands on.
     neighbours : tuple of (int, ndarray), optional

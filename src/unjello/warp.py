@@ -310,19 +310,20 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
     ``front`` (h, w, 3) is the layer's backward displacement and its weight at each pixel
     of the frame (:attr:`~unjello.trajectory.FrameMotion.front`). Output pixel ``p``
     takes the layer's source ``q = p + front(p)[:2]`` with the weight the object has at
-    ``q`` -- it lands there -- or at ``p`` itself -- it was there and has turned away:
-    the layer's source then shows what lay beside it rather than the object a second
-    time. Elsewhere ``maps`` stay.
+    ``q``: where it lands. Elsewhere ``maps`` stay -- also where the object was and has
+    turned away from (taking the layer's source there too, the background beside it
+    turned, measured worse: the simulated propeller's blades 22.07 -> 21.99 dB, the
+    wheel 25.89 -> 25.63).
 
     Examples
     --------
     A layer that takes every pixel from one to its right, for an object covering the
-    right half of a 4 x 4 frame:
+    right half of a 4 x 4 frame: the pixels whose source is the object take it.
 
     >>> gx, gy = pixel_grid(4, 4)
     >>> layer = np.zeros((4, 4, 3), np.float32); layer[..., 0] = 1.0; layer[:, 2:, 2] = 1.0
     >>> front_maps((gx, gy), layer)[0][0].tolist()
-    [0.0, 2.0, 3.0, 4.0]
+    [0.0, 2.0, 3.0, 3.0]
     """
     h, w = front.shape[:2]
     f = np.ascontiguousarray(front[..., :2], np.float32)
@@ -330,12 +331,10 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
         f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
     gx, gy = pixel_grid(h, w)
     qx, qy = gx + f[..., 0], gy + f[..., 1]
-    weight = np.ascontiguousarray(front[..., 2], np.float32)
-    lands = cv2.remap(weight, qx, qy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                      borderValue=0)
-    alpha = np.maximum(lands, weight)
+    lands = cv2.remap(np.ascontiguousarray(front[..., 2], np.float32), qx, qy,
+                      cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     mx, my = maps
-    return mx + alpha * (qx - mx), my + alpha * (qy - my)
+    return mx + lands * (qx - mx), my + lands * (qy - my)
 
 
 def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int

@@ -174,7 +174,7 @@ def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(sce
     blades' 1 px seams); at 320x240 (benchmarks/synthetic.py) blades 0.149x over all
     frames, background 0.112x. Turned back, a blade lands partly on what the frame shows
     as background; the blades' layer in front of the field (FrameMotion.front) shows it
-    there: PSNR around the blades (grown by 12 px) on the inner frames 4.96-10.83 dB
+    there: PSNR around the blades (grown by 12 px) on the inner frames 6.04-10.54 dB
     above the input, 2.59-4.90 dB with the forward field alone."""
     import cv2
     from benchmarks.synthetic import region_psnr
@@ -204,7 +204,7 @@ def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(sce
     gains = [region_psnr(o, s.truth, m) - region_psnr(s.rolling, s.truth, m)
              for o, s in zip(out[1:-1], sim[1:-1], strict=True)
              for m in [cv2.dilate((s.layer != 0).astype(np.uint8), grow).astype(bool)]]
-    assert min(gains) > 4, gains
+    assert min(gains) > 5, gains
     assert all(f.confidence > 0.9 for f in inner)
 
 
