@@ -73,8 +73,9 @@ class RunSummary:
         if self.kept:
             index, share = max(self.kept, key=lambda k: k[1])
             out.append(f"warning: on {len(self.kept)} frame(s) the per-pixel motion folded or "
-                       f"tore the picture (a fast-spinning object?); there it was given the "
-                       f"motion around it (at most {100 * share:.0f}% of frame {index})")
+                       f"tore the picture, or failed on an object that did in the frame "
+                       f"before (a fast-spinning object?); there it was given the motion "
+                       f"around it (at most {100 * share:.0f}% of frame {index})")
         if self.folded:
             index, share = max(self.folded, key=lambda k: k[1])
             out.append(f"warning: the correction folds or tears the picture on "

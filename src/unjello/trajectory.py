@@ -116,10 +116,9 @@ class FrameMotion:
         shown in front of ``field``, each of shape (hf, wf, 3) on the field's grid: the
         rotation's backward displacement ``(dx, dy)`` (the output pixel ``p`` shows the
         frame's ``p + (dx, dy)``, in pixels of the full frame) and the object's weight
-        (0-1) at each pixel of the frame. Where the rotated object lands the picture
-        takes the rotation's source
-        (:func:`unjello.warp.frame_maps`): a forward ``field`` alone cannot show a
-        turned-back tip over the background it lands on.
+        (0-1) at each pixel of the frame. Where the rotated object lands, the picture
+        takes the rotation's source (:func:`unjello.warp.front_maps`): a forward
+        ``field`` alone cannot show a turned-back tip over the background it lands on.
     neighbours : tuple of (int, ndarray), optional
         Dense methods: the flow from this frame to the frame ``offset`` away, shape
         (hf, wf, 2) in pixels of its own (hf, wf) grid, for filling what this frame does

@@ -45,7 +45,7 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
     # keeps them whole because frame 4 did and their flow fails again (35 %).
     kept = [f.index for f in traj.frames if f.kept > 0]
     assert kept == [0, 1, 2, 3, 4, 5]
-    assert "the frame before" in traj.frames[5].note
+    assert "failed in the frame before too" in traj.frames[5].note
     assert "given the motion around it" in traj.frames[2].note
     assert all(f.folds < FOLD_WARNING for f in traj.frames)
     # Frame 3: the pink spinner turned back whole by a rotation fitted per scanline

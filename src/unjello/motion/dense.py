@@ -414,11 +414,12 @@ class DenseMethod:
                 islands_only=folds <= KEEP_WHOLE, carried=carried,
                 from_folds=folds > KEEP_ISLAND)
             if share > 0 and (after < folds or (carried is not None and after <= folds)):
+                folds_before = folds
                 field, folds, kept = whole, after, share
                 self._kept = regions
-                notes.append(f"{100 * kept:.0f}% given the motion around it (the per-pixel "
-                             "motion folded or tore, or its object's did in the frame "
-                             "before)")
+                why = ("the per-pixel motion folded or tore" if folds_before > KEEP_ISLAND
+                       else "its object's motion failed in the frame before too")
+                notes.append(f"{100 * kept:.0f}% given the motion around it ({why})")
             else:
                 regions = np.zeros((h, w), bool)
         regions |= failed_blobs(fallback & ~entering)
