@@ -228,10 +228,11 @@ class VideoReader:
     """
 
     def __init__(self, path: str | os.PathLike) -> None:
-        self.info = None if is_pipe(path) else probe(path)
+        probed = None if is_pipe(path) else probe(path)
         self._c = _open(path)
-        if self.info is None:  # standard input: read once, described from its header
-            self.info = _describe(self._c, "standard input", first_frame=False)
+        # Standard input is read once: described from its header.
+        self.info: VideoInfo = (probed if probed is not None
+                                else _describe(self._c, "standard input", first_frame=False))
         self._vs = self._c.streams.video[0]
         self._vs.thread_type = "AUTO"
         self.work_format = _work_format(self._vs.codec_context.pix_fmt)

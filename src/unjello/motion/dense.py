@@ -186,6 +186,7 @@ class DenseMethod:
 
     def _measure(self, prev: _Frame, cur: _Frame) -> Future | tuple:
         """Start (on the executor, if any) or look up the flows between two frames."""
+        args: tuple
         if not self.config.per_pixel:  # rows only: one flow, its row summary rejects outliers
             args = (cur.image, prev.image, self.config.flow_preset, 0, self.config.finest_scale)
             job: Callable[..., tuple] = _row_flow

@@ -302,7 +302,7 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
         cv2.GaussianBlur(cv2.dilate(patch, k).astype(np.float32), (0, 0), 6.0),
         cv2.GaussianBlur(cv2.dilate(obj, _disc(int(feather))).astype(np.float32), (0, 0),
                          feather) if obj.any() else 0.0)
-    region = (patch | obj).astype(bool)
+    region = patch.astype(bool) | obj.astype(bool)
     weight = np.maximum(weight, region.astype(np.float32))[..., None]
     # What fills the region: the motion of its surroundings (a normalised Gaussian average
     # of the field outside it), else the camera's.

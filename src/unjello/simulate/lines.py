@@ -62,10 +62,10 @@ def street_scene(size: tuple[int, int] = (960, 720), *, lean: float = 0.0, roll:
     img += noise[..., None]
     centre = (W / 2.0, H / 2.0)
     shear = np.array([[1.0, lean, -lean * centre[1]], [0.0, 1.0, 0.0]], np.float32)
-    img = cv2.warpAffine(img, shear, (W, H), flags=cv2.INTER_LINEAR,
+    out = cv2.warpAffine(img, shear, (W, H), flags=cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_REFLECT)
     if roll:
         rot = cv2.getRotationMatrix2D(centre, float(np.degrees(roll)), 1.0)
-        img = cv2.warpAffine(img, rot, (W, H), flags=cv2.INTER_LINEAR,
+        out = cv2.warpAffine(out, rot, (W, H), flags=cv2.INTER_LINEAR,
                              borderMode=cv2.BORDER_REFLECT)
-    return np.clip(img[m:m + h, m:m + w], 0, 255).astype(np.uint8)
+    return np.clip(out[m:m + h, m:m + w], 0, 255).astype(np.uint8)
