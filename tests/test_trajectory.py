@@ -1,5 +1,6 @@
 """The Trajectory, the hub: eq. 26 per scanline, its JSON form, streaming writes."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -57,7 +58,7 @@ def test_a_front_layer_is_stored_with_the_field_and_read_back(tmp_path):
     layer = np.zeros((h, w, 3), np.float32)
     layer[..., 0] = np.linspace(-2, 2, w)[None]  # a backward displacement
     layer[4:20, 8:32, 2] = 1.0  # the object's weight
-    traj.frames[2] = FrameMotion(**{**traj.frames[2].__dict__, "front": (layer,)})
+    traj.frames[2] = dataclasses.replace(traj.frames[2], front=(layer,))
     traj.save(tmp_path / "m.json")
     doc = json.loads((tmp_path / "m.json").read_text())
     stored = doc["frames"][2]["front"][0]
