@@ -202,7 +202,7 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         share = (np.bincount(labels[unreliable], minlength=count)
                  / np.maximum(np.bincount(labels.ravel(), minlength=count), 1))
         bad = share >= ISLAND_FAILED
-        if islands_only or not from_folds:
+        if carried is not None and (islands_only or not from_folds):
             bad &= np.bincount(labels[carried], minlength=count) > 0
         failed = np.isin(labels, np.flatnonzero(bad)) & islands
 
