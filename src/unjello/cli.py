@@ -454,7 +454,7 @@ def plot(motion: Path, output: Path, overwrite: bool) -> None:
 @click.argument("input", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True)
 def probe(input: Path, as_json: bool) -> None:
-    """Describe a video: size, rate, rotation, audio, format, and the readout and lens used."""
+    """Describe a video or a folder of frames, and the readout and lens correct would use."""
     from .clip import describe
 
     doc = describe(input)
@@ -462,11 +462,17 @@ def probe(input: Path, as_json: bool) -> None:
         click.echo(json.dumps(doc))
         return
     d = doc
-    click.echo(f"{input}: {d['width']}x{d['height']} {d['codec']} {d['pix_fmt']} "
-               f"({d['bit_depth']}-bit), {d['fps']:.3f} fps"
-               f"{' (variable)' if d['variable_frame_rate'] else ''}, {d['frames']} frames, "
-               f"{d['duration']:.2f} s")
-    click.echo(f"rotation {d['rotation']} deg, {d['audio_streams']} audio stream(s)")
+    if d["folder"]:
+        click.echo(f"{input}: a folder of {d['frames']} {d['format'].upper()} frames, "
+                   f"{d['width']}x{d['height']}, {d['channels']} channel(s), "
+                   f"{d['bit_depth']}-bit; no frame rate of its own ({d['assumed_fps']:g} "
+                   "fps unless --fps)")
+    else:
+        click.echo(f"{input}: {d['width']}x{d['height']} {d['codec']} {d['pix_fmt']} "
+                   f"({d['bit_depth']}-bit), {d['fps']:.3f} fps"
+                   f"{' (variable)' if d['variable_frame_rate'] else ''}, {d['frames']} "
+                   f"frames, {d['duration']:.2f} s")
+        click.echo(f"rotation {d['rotation']} deg, {d['audio_streams']} audio stream(s)")
     if d["readout"] is not None:
         click.echo(f"readout: {d['readout_ms']:.4g} ms ({d['readout']:.4g} of the frame "
                    f"interval, {d['direction']}), from the {d['readout_source']}")

@@ -21,6 +21,7 @@ from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
 from .gyrolog import GyroLog
+from .io.frames import list_frames
 from .io.sidecars import LensProfile, gyro_source, read_lens_profile, stated_readout
 from .io.source import FrameSource
 from .io.telemetry import camera_of
@@ -334,29 +335,40 @@ def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, in
 
 
 def describe(path: Path) -> dict[str, Any]:
-    """Describe a video as ``unjello probe`` prints it, with what ``correct`` would use.
+    """Describe a video or a folder of frames as ``unjello probe`` prints it.
 
     Size, rate (and whether it varies), frames, duration, codec and format, rotation,
-    audio, colour tags; the readout (fraction, ms, where from: ``None`` when only the
-    default would be used), the scan direction and the lens (focal, fisheye k) that
+    audio, colour tags (a folder: size, frames, image format, channels, depth); the
+    readout (fraction, ms, where from: ``None`` when only the default would be used),
+    the scan direction and the lens (focal, fisheye k) that
     :func:`resolve_clip` finds for it.
     """
-    info = probe(path)
+    folder = Path(path).is_dir()
     with FrameSource(path) as source:
         config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), path, source)
+        first = next(source.pictures(limit=1)).planes[0] if folder else None
     said = resolved.sources["readout"]
     stated = said != "default"
     ms = resolved.timing.readout / resolved.fps * 1e3
     g = config.gyro
     lens = ({"focal": round(g.focal, 2), "distortion": list(g.distortion)}
             if g.focal is not None and g.distortion is not None else None)
-    return {"path": str(path), "width": info.width, "height": info.height,
+    common = {"readout": round(resolved.timing.readout, 6) if stated else None,
+              "readout_ms": round(ms, 4) if stated else None,
+              "readout_source": said if stated else None,
+              "direction": resolved.timing.direction, "lens": lens}
+    if first is not None:  # a folder of frames: no rate, codec, audio or tags of its own
+        files = list_frames(path)
+        channels = first.shape[2] if first.ndim == 3 else 1
+        return {"path": str(path), "folder": True, "width": first.shape[1],
+                "height": first.shape[0], "frames": len(files),
+                "format": files[0].suffix.lstrip(".").lower(), "channels": channels,
+                "bit_depth": int(first.dtype.itemsize * 8), "fps": None,
+                "assumed_fps": resolved.fps, **common}
+    info = probe(path)
+    return {"path": str(path), "folder": False, "width": info.width, "height": info.height,
             "fps": round(info.fps, 4), "variable_frame_rate": variable_rate(path),
             "frames": info.frames, "duration": round(info.duration, 3), "codec": info.codec,
             "pix_fmt": info.pix_fmt, "bit_depth": info.bit_depth, "rotation": info.rotation,
-            "audio_streams": info.audio_streams,
-            "readout": round(resolved.timing.readout, 6) if stated else None,
-            "readout_ms": round(ms, 4) if stated else None,
-            "readout_source": said if stated else None,
-            "direction": resolved.timing.direction, "lens": lens,
+            "audio_streams": info.audio_streams, **common,
             "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}

@@ -8,12 +8,17 @@ non-zero exit code.
 
 from __future__ import annotations
 
+import errno
+import os
+from pathlib import Path
+
 __all__ = [
     "UnjelloError",
     "InputError",
     "OutputError",
     "SettingsError",
     "MissingExtraError",
+    "cannot_write",
 ]
 
 
@@ -35,3 +40,20 @@ class SettingsError(UnjelloError, ValueError):
 
 class MissingExtraError(UnjelloError, ImportError):
     """An optional dependency is needed; the message says which ``pip install`` fixes it."""
+
+
+def cannot_write(path: str | os.PathLike, exc: OSError) -> OutputError:
+    """Say in one line why ``path`` could not be written, in the file system's terms."""
+    folder = Path(path).parent
+    why = {errno.EACCES: f"the folder {folder} is not writable",
+           errno.EPERM: f"the folder {folder} is not writable",
+           errno.EROFS: f"the folder {folder} is on a read-only file system",
+           errno.ENOSPC: f"no space left on the device of {folder}",
+           errno.EDQUOT: f"the disk quota of {folder} is exhausted",
+           errno.ENOENT: f"the folder {folder} does not exist",
+           errno.ENOTDIR: f"{folder} is not a folder"}.get(exc.errno or 0,
+                                                           exc.strerror or str(exc))
+    name = Path(path).name
+    if name.startswith(".") and ".unjello-" in name:  # our temporary name: not the user's
+        return OutputError(f"cannot write the output: {why}")
+    return OutputError(f"cannot write {path}: {why}")

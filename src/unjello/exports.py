@@ -13,8 +13,8 @@ from typing import BinaryIO
 import cv2
 import numpy as np
 
-from .io.frames import write_image
-from .io.sink import FrameSink, remove, replace, temp_path
+from .io.frames import rgb8, write_image
+from .io.sink import FrameSink, make_folder, remove, replace, temp_path
 from .io.source import FrameSource
 from .io.video import EncodeOptions, VideoWriter
 from .timing import SensorTiming
@@ -198,14 +198,6 @@ def side_by_side_planes(before: list[np.ndarray], after: list[np.ndarray]
     return out
 
 
-def _rgb8(img: np.ndarray) -> np.ndarray:
-    if img.ndim == 2:
-        img = np.repeat(img[..., None], 3, axis=2)
-    if img.dtype != np.uint8:
-        img = (img.astype(np.float64) * 255.0 / np.iinfo(img.dtype).max).astype(np.uint8)
-    return np.ascontiguousarray(img[..., :3])
-
-
 class SideOutputs:
     """What is written beside the corrected clip, frame by frame, atomically.
 
@@ -247,7 +239,7 @@ class SideOutputs:
             self._motion = TrajectoryWriter(self.motion_out, traj)
         if self.stmap is not None:
             self._stmap_tmp = temp_path(self.stmap)
-            self._stmap_tmp.mkdir()
+            make_folder(self._stmap_tmp)
         if self.preview is not None:
             if source.reader is not None:
                 reader, info = source.reader, source.reader.info
@@ -270,7 +262,7 @@ class SideOutputs:
         if self._writer is not None:
             self._writer.write(side_by_side_planes(before, after), pts)
         elif self._sink is not None:
-            self._sink.write(side_by_side(_rgb8(before[0]), _rgb8(after[0]),
+            self._sink.write(side_by_side(rgb8(before[0]), rgb8(after[0]),
                                           ("input", "unjello")))
 
     def finish(self) -> None:

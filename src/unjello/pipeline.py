@@ -29,7 +29,7 @@ from .io.codecs import check_output
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
-from .io.video import is_pipe
+from .io.video import VIDEO_SUFFIXES, is_pipe
 from .lens import Lens
 from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
@@ -376,7 +376,8 @@ def correct_video(
     if is_pipe(dst) and config.encode.format is None:  # standard output: NUT by default
         config = config.with_options(format="nut")
     check_paths(src_p, dst_p, overwrite)
-    if is_pipe(src) or not src_p.is_dir():  # a video out: codec, profile, container agree
+    if is_pipe(src) or is_pipe(dst) or not src_p.is_dir() or dst_p.suffix.lower() in \
+            VIDEO_SUFFIXES:  # a video out: codec, profile, container agree
         check_output(config.encode.codec, config.encode.profile, dst_p, config.encode.format)
     side = SideOutputs(motion_out, stmap, preview, config.encode)
     for extra in side.paths:
@@ -398,8 +399,8 @@ def correct_video(
                                   motion=given, fps=resolved.fps, gyro_log=gyro_log,
                                   gyro_fallback=distrust or own is not None, executor=pool,
                                   workers=workers)
-            _stream(source, PictureSink(dst_p, source, config.encode), corrector, side, traj,
-                    resolved, progress)
+            sink = PictureSink(dst_p, source, config.encode, resolved.fps)
+            _stream(source, sink, corrector, side, traj, resolved, progress)
     if report and corrector.gyro is not None:
         if corrector.gyro.fallback:
             report.update(used=False, why=corrector.gyro.fallback)

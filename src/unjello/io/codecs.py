@@ -16,7 +16,8 @@ from pathlib import Path
 
 from ..errors import SettingsError
 
-__all__ = ["Codec", "CODECS", "check_output", "output_format", "encoder_options"]
+__all__ = ["Codec", "CODECS", "check_output", "output_format", "encoder_options",
+           "keeps_full_range"]
 
 _MP4ISH = (".mp4", ".m4v", ".mov", ".mkv", ".nut", ".ts", ".m2ts", ".mts")
 
@@ -40,6 +41,9 @@ class Codec:
         The profile used when none is given.
     crf : bool
         Takes ``crf`` and the x264/x265 speed ``preset``.
+    full_range : bool
+        Its files can say that the levels are full range (0-255); ProRes and DNxHR are
+        read as limited range by editors, so full-range input is converted for them.
     """
 
     name: str
@@ -48,6 +52,7 @@ class Codec:
     profiles: dict[str, tuple[str, str]] = field(default_factory=dict)
     default_profile: str = ""
     crf: bool = False
+    full_range: bool = True
 
 
 _X = ("yuv420p", "yuv422p", "yuv444p", "yuv420p10le", "yuv422p10le", "yuv444p10le")
@@ -58,11 +63,12 @@ CODECS: dict[str, Codec] = {c.name: c for c in (
     Codec("prores_ks", (".mov", ".mkv", ".nut"), ("yuv422p10le", "yuv444p10le"), {
         "proxy": ("0", "yuv422p10le"), "lt": ("1", "yuv422p10le"),
         "standard": ("2", "yuv422p10le"), "hq": ("3", "yuv422p10le"),
-        "4444": ("4", "yuv444p10le"), "4444xq": ("5", "yuv444p10le")}, "hq"),
+        "4444": ("4", "yuv444p10le"), "4444xq": ("5", "yuv444p10le")}, "hq",
+          full_range=False),
     Codec("dnxhd", (".mov", ".mxf", ".mkv", ".nut"), ("yuv422p", "yuv422p10le", "yuv444p10le"), {
         "dnxhr_lb": ("dnxhr_lb", "yuv422p"), "dnxhr_sq": ("dnxhr_sq", "yuv422p"),
         "dnxhr_hq": ("dnxhr_hq", "yuv422p"), "dnxhr_hqx": ("dnxhr_hqx", "yuv422p10le"),
-        "dnxhr_444": ("dnxhr_444", "yuv444p10le")}, "dnxhr_hq"),
+        "dnxhr_444": ("dnxhr_444", "yuv444p10le")}, "dnxhr_hq", full_range=False),
     Codec("ffv1", (".mkv", ".avi", ".nut"), ("yuv420p", "yuv422p", "yuv444p", "yuv420p10le",
                                              "yuv422p10le", "yuv444p10le")),
     # Uncompressed frames: a pipe's default (NUT or y4m), read by the next program.
@@ -122,12 +128,20 @@ def output_format(codec: str, profile: str | None, planes_format: str) -> str:
     return (same or list(known.formats))[0]
 
 
+def keeps_full_range(codec: str) -> bool:
+    """Whether ``codec`` may carry full-range levels as they are (else: limited range)."""
+    known = CODECS.get(codec)
+    return known is None or known.full_range
+
+
 def encoder_options(codec: str, crf: int, preset: str, profile: str | None) -> dict[str, str]:
     """Return the encoder's own options: CRF and preset for x264/x265, a profile for others."""
     known = CODECS.get(codec)
     if known is None:
         return {}
     if known.crf:
+        if codec == "libx264" and crf == 0:  # lossless at any bit depth
+            return {"qp": "0", "preset": preset}
         quiet = {"x265-params": "log-level=error"} if codec == "libx265" else {}
         return {"crf": str(crf), "preset": preset, **quiet}
     if known.profiles:

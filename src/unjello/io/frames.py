@@ -62,6 +62,15 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     return img
 
 
+def rgb8(img: np.ndarray) -> np.ndarray:
+    """Return an 8-bit RGB copy of a grey, RGB or RGBA image of any integer depth."""
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=2)
+    if img.dtype != np.uint8:
+        img = (img.astype(np.float64) * 255.0 / np.iinfo(img.dtype).max).astype(np.uint8)
+    return np.ascontiguousarray(img[..., :3])
+
+
 def write_image(path: str | os.PathLike, image: np.ndarray) -> None:
     """Write an RGB(A)/grey image atomically; the format follows the file suffix."""
     path = Path(path)

@@ -20,13 +20,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
-from .frames import write_image
+from ..errors import OutputError, cannot_write
+from .frames import rgb8, write_image
 from .source import FrameSource, Picture
 from .video import VIDEO_SUFFIXES, EncodeOptions, ThreadedWriter, VideoWriter, is_pipe
 
 __all__ = ["temp_path", "replace", "remove", "check_new", "check_paths", "PictureSink",
-           "FrameSink"]
+           "FrameSink", "make_folder"]
+
+
+def make_folder(path: Path) -> None:
+    """Create an output folder (a temporary one), or say in one line why it cannot be."""
+    try:
+        path.mkdir()
+    except OSError as exc:
+        raise cannot_write(path, exc) from None
 
 
 def temp_path(dst: Path) -> Path:
@@ -98,18 +106,28 @@ class PictureSink:
         The source whose format, timing, metadata and names are kept.
     encode : EncodeOptions
         Encoder settings of a video.
+    fps : float
+        Frame rate of a video made from a folder of frames (a ``dst`` with a video
+        suffix).
     """
 
     def __init__(self, dst: Path, source: FrameSource,
-                 encode: EncodeOptions = EncodeOptions()) -> None:
+                 encode: EncodeOptions = EncodeOptions(), fps: float = 30.0) -> None:
         self.dst = dst
         self._pipe = is_pipe(dst)  # standard output: written as it goes, nothing to rename
         self._tmp = dst if self._pipe else temp_path(dst)
         self._video: ThreadedWriter | None = None
+        self._frames: FrameSink | None = None  # a folder of frames made into a video
         if source.reader is not None:
             self._video = ThreadedWriter(VideoWriter.like(self._tmp, source.reader, encode))
+        elif self._pipe or dst.suffix.lower() in VIDEO_SUFFIXES:
+            if source.info.width % 2 or source.info.height % 2:
+                raise OutputError(f"frames of {source.info.width}x{source.info.height} make "
+                                  "no video (it needs an even width and height): give -o a "
+                                  "folder")
+            self._frames = FrameSink(dst, fps, True, encode)
         else:
-            self._tmp.mkdir()
+            make_folder(self._tmp)
         self.frames_written = 0
 
     def write(self, picture: Picture, planes: list[np.ndarray]) -> None:
@@ -117,6 +135,9 @@ class PictureSink:
         if self._video is not None:
             self._video.write(planes, picture.pts)
             self.frames_written = self._video.frames_written
+        elif self._frames is not None:
+            self._frames.write(rgb8(planes[0]))
+            self.frames_written += 1
         else:
             write_image(self._tmp / str(picture.name), planes[0])
             self.frames_written += 1
@@ -128,6 +149,9 @@ class PictureSink:
 
     def close(self) -> None:
         """Finish and move the output into place."""
+        if self._frames is not None:
+            self._frames.close()
+            return
         if self._video is not None:
             self._video.close()
         if not self._pipe:
@@ -135,6 +159,9 @@ class PictureSink:
 
     def abort(self) -> None:
         """Drop the partial output."""
+        if self._frames is not None:
+            self._frames.abort()
+            return
         if self._video is not None:
             self._video.abort()
         if not self._pipe:
@@ -147,8 +174,8 @@ class FrameSink:
     Parameters
     ----------
     path : path-like
-        ``*.mp4`` (or another video suffix) for a video, anything else for a folder
-        that receives ``frame_00000.png`` ...
+        ``*.mp4`` (or another video suffix) or ``-`` (standard output) for a video,
+        anything else for a folder that receives ``frame_00000.png`` ...
     fps : float
         Frame rate of a video.
     overwrite : bool
@@ -160,14 +187,16 @@ class FrameSink:
     def __init__(self, path: str | os.PathLike, fps: float = 30.0, overwrite: bool = False,
                  encode: EncodeOptions = EncodeOptions()) -> None:
         self.path = Path(path)
-        check_new(self.path, overwrite)
-        self.is_video = self.path.suffix.lower() in VIDEO_SUFFIXES
-        self._tmp = temp_path(self.path)
+        self._pipe = is_pipe(path)  # standard output: a video, written as it goes
+        if not self._pipe:
+            check_new(self.path, overwrite)
+        self.is_video = self._pipe or self.path.suffix.lower() in VIDEO_SUFFIXES
+        self._tmp = self.path if self._pipe else temp_path(self.path)
         self._fps, self._encode = fps, encode
         self._writer: VideoWriter | None = None
         self._n = 0
         if not self.is_video:
-            self._tmp.mkdir()
+            make_folder(self._tmp)
 
     def write(self, image: np.ndarray) -> None:
         """Append one frame."""
@@ -187,13 +216,15 @@ class FrameSink:
         """Finish and move the output into place."""
         if self._writer is not None:
             self._writer.close()
-        replace(self._tmp, self.path)
+        if not self._pipe:
+            replace(self._tmp, self.path)
 
     def abort(self) -> None:
         """Drop the partial output."""
         if self._writer is not None:
             self._writer.abort()
-        remove(self._tmp)
+        if not self._pipe:
+            remove(self._tmp)
 
     def __enter__(self) -> FrameSink:
         return self

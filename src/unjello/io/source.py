@@ -124,7 +124,7 @@ class FrameSource:
         if self.info.width < _MIN_SIZE or self.info.height < _MIN_SIZE:
             self.close()
             raise InputError(f"{self.path}: frames of {self.info.width}x{self.info.height} "
-                             "are too small")
+                             f"are too small (unjello needs at least {_MIN_SIZE}x{_MIN_SIZE})")
 
     def __enter__(self) -> FrameSource:
         return self

@@ -11,18 +11,19 @@ tags of the input.
 
 from __future__ import annotations
 
+import errno
 import os
 import sys
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
 
 import av
 import numpy as np
 
-from ..errors import InputError, OutputError, SettingsError
-from .codecs import encoder_options, output_format
+from ..errors import InputError, OutputError, SettingsError, cannot_write
+from .codecs import encoder_options, keeps_full_range, output_format
 
 __all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
            "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags", "PIPE",
@@ -40,8 +41,9 @@ def is_pipe(path: str | os.PathLike | None) -> bool:
 
 VIDEO_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".m4v", ".webm", ".mts", ".m2ts")
 
-_PLANAR = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p",
-           "yuv420p10le", "yuv422p10le", "yuv444p10le"}
+_PLANAR = {"yuv420p", "yuv422p", "yuv444p", "yuv420p10le", "yuv422p10le", "yuv444p10le"}
+#: FFmpeg's code of the full colour range ("PC", 0-255; limited, "TV", 16-235, is 1).
+FULL = 2
 
 
 @dataclass(frozen=True)
@@ -89,9 +91,8 @@ def _open(path: str | os.PathLike) -> av.container.InputContainer:
         try:
             return av.open(sys.stdin.buffer, "r")
         except (av.FFmpegError, ValueError) as exc:
-            raise InputError(f"standard input: not a video stream PyAV can read "
-                             f"({exc.__class__.__name__}; pipe NUT, Matroska, MPEG-TS or "
-                             "y4m)") from None
+            raise InputError("standard input: not a video stream (empty, or not NUT, "
+                             f"Matroska, MPEG-TS or y4m: {exc.__class__.__name__})") from None
     p = Path(path)
     if not p.exists():
         raise InputError(f"{p}: no such file or folder")
@@ -99,20 +100,65 @@ def _open(path: str | os.PathLike) -> av.container.InputContainer:
         raise InputError(f"{p}: is a folder, not a video")
     try:
         c = av.open(str(p), "r")
-    except (av.FFmpegError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"{p}: not a video PyAV can read ({exc.__class__.__name__})") from None
+    except (av.FFmpegError, UnicodeDecodeError, ValueError):
+        raise InputError(f"{p}: {_unreadable(p)}") from None
     if not c.streams.video:
         c.close()
         raise InputError(f"{p}: has no video stream")
     return c
 
 
+#: How video containers begin: (offset, bytes).
+_SIGNATURES = ((4, b"ftyp"), (4, b"moov"), (4, b"mdat"), (4, b"wide"), (4, b"free"),
+               (0, b"\x1a\x45\xdf\xa3"), (0, b"RIFF"), (0, b"nut/multimedia"),
+               (0, b"YUV4MPEG2"), (0, b"\x00\x00\x01\xba"), (0, b"OggS"), (0, b"FLV"))
+
+
+def _unreadable(p: Path) -> str:
+    """Say why a file that FFmpeg cannot open is not a video: empty, cut short, or not one."""
+    size = p.stat().st_size
+    if size == 0:
+        return "the file is empty"
+    with p.open("rb") as f:
+        head = f.read(16)
+    if any(head[at:at + len(sig)] == sig for at, sig in _SIGNATURES) or (
+            head[:1] == b"\x47" and size >= 189):  # MPEG-TS sync bytes
+        return (f"a video file cut short or damaged ({size:,} bytes; its index cannot be "
+                "read: was it copied or recorded to the end?)")
+    return "not a video file (no container FFmpeg knows)"
+
+
 def _work_format(pix_fmt: str | None) -> str:
+    """Return the planar format the core works in: the input's where it is planar YUV.
+
+    FFmpeg's ``yuvj`` formats are the same planes at full range: they are read as the
+    plain format, and the range travels as a tag (``VideoReader.full_range``), so that no
+    conversion ever squeezes the levels.
+    """
+    if pix_fmt and pix_fmt.startswith("yuvj"):
+        pix_fmt = "yuv" + pix_fmt[4:]
     if pix_fmt in _PLANAR:
         return pix_fmt
     if pix_fmt and ("10" in pix_fmt or "12" in pix_fmt or "16" in pix_fmt):
         return "yuv420p10le"
     return "yuv420p"
+
+
+_UNSPECIFIED = {"color_range": 0, "colorspace": 2, "color_primaries": 2, "color_trc": 2}
+
+
+def _tagged(color: dict) -> bool:
+    """Whether colour tags say anything (a range, matrix, primaries or transfer)."""
+    return any(v is not None and int(v) != _UNSPECIFIED.get(k, 2) for k, v in color.items())
+
+
+#: The errors that say the file system refused a write (not the encoder).
+_WRITE_ERRORS = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT,
+                 errno.ENOENT, errno.ENOTDIR, errno.EFBIG, errno.EIO}
+
+
+def _range_of(full: bool) -> str:
+    return "JPEG" if full else "MPEG"
 
 
 def probe(path: str | os.PathLike) -> VideoInfo:
@@ -141,9 +187,15 @@ def _describe(c: av.container.InputContainer, path: str | os.PathLike, first_fra
     rate = vs.average_rate or vs.guessed_rate or vs.base_rate or Fraction(30)
     rotation = 0
     frames = vs.frames
+    color = {k: getattr(cc, k, None) for k in
+             ("color_range", "colorspace", "color_primaries", "color_trc")}
+    if str(cc.pix_fmt).startswith("yuvj"):
+        color["color_range"] = FULL
     try:
         for fr in c.decode(video=0) if first_frame else ():
             rotation = int(fr.rotation or 0)
+            if fr.color_range == FULL or fr.format.name.startswith("yuvj"):
+                color["color_range"] = FULL
             break
     except av.FFmpegError:
         pass
@@ -153,9 +205,7 @@ def _describe(c: av.container.InputContainer, path: str | os.PathLike, first_fra
         path=str(path), width=cc.width, height=cc.height, fps=float(rate),
         time_base=vs.time_base or Fraction(1, 90000), frames=int(frames or 0),
         duration=duration, pix_fmt=str(cc.pix_fmt), bit_depth=10 if "10" in fmt else 8,
-        rotation=rotation, audio_streams=len(c.streams.audio), codec=cc.name,
-        color={k: getattr(cc, k, None) for k in
-               ("color_range", "colorspace", "color_primaries", "color_trc")},
+        rotation=rotation, audio_streams=len(c.streams.audio), codec=cc.name, color=color,
     )
 
 
@@ -236,6 +286,8 @@ class VideoReader:
         self._vs = self._c.streams.video[0]
         self._vs.thread_type = "AUTO"
         self.work_format = _work_format(self._vs.codec_context.pix_fmt)
+        #: Full-range levels (0-255, as GoPros and many phones write): kept as they are.
+        self.full_range = self.info.color.get("color_range") == FULL
         self.audio = list(self._c.streams.audio)
 
     def __enter__(self) -> VideoReader:
@@ -306,8 +358,12 @@ class VideoReader:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
 
     def _planes(self, frame: av.VideoFrame) -> list[np.ndarray]:
-        if frame.format.name != self.work_format:
-            frame = frame.reformat(format=self.work_format)
+        name = frame.format.name
+        if name != self.work_format and _work_format(name) != self.work_format:
+            # Another layout (NV12, RGB ...): converted, the levels' range kept.
+            r = _range_of(self.full_range)
+            frame = frame.reformat(format=self.work_format, src_color_range=r,
+                                   dst_color_range=r)
         return frame_planes(frame)
 
 
@@ -340,18 +396,34 @@ class VideoWriter:
                  time_base: Fraction | None = None, pix_fmt: str = "yuv420p",
                  options: EncodeOptions = EncodeOptions(), rotation: int = 0,
                  color: dict | None = None, audio: tuple = ()) -> None:
-        self._fmt = pix_fmt
+        self._fmt = _work_format(pix_fmt)
+        full = (color or {}).get("color_range") == FULL
+        self._range = _range_of(full)  # the planes' levels
+        # ... and the file's: full range kept where the codec's files can say so.
+        self._out_range = _range_of(full and keeps_full_range(options.codec))
+        color = {**(color or {}), **({"color_range": 1} if full and self._out_range == "MPEG"
+                                     else {})}
         rate = Fraction(fps).limit_denominator(100000)
         self._time_base = time_base or Fraction(1, 1) / rate
+        self._path = path
         try:
+            if not is_pipe(path):  # created here, so that a folder we cannot write says so
+                Path(path).touch()
             self._c = (av.open(sys.stdout.buffer, "w", format=options.format or "nut")
                        if is_pipe(path) else av.open(str(path), "w", format=options.format))
-        except (av.FFmpegError, ValueError) as exc:
+        except OSError as exc:  # PyAV's errors are OSErrors too
+            raise cannot_write(path, exc) from None
+        except ValueError as exc:
             raise OutputError(f"{path}: cannot create output ({exc})") from None
         self._numbered = "yuv4mpeg" in self._c.format.name
         if self._numbered:  # raw frames: no audio, no timestamps (one a frame interval)
             audio = ()
             self._time_base = Fraction(1, 1) / rate
+        if (options.codec == "rawvideo" and self._c.format.name == "nut"
+                and _tagged(color or {})):
+            # NUT has no field for colour tags and raw frames carry none: the frames go as
+            # lossless H.264, whose stream carries them (the pixels are the same).
+            options = replace(options, codec="libx264", crf=0, preset="ultrafast")
         try:
             vs = self._c.add_stream(options.codec, rate=rate)
             assert isinstance(vs, av.video.stream.VideoStream)
@@ -367,7 +439,7 @@ class VideoWriter:
         vs.thread_type = "AUTO"
         vs.options = encoder_options(options.codec, options.crf, options.preset,
                                      options.profile)  # type: ignore[assignment]
-        for k, v in (color or {}).items():
+        for k, v in color.items():
             if v is not None:
                 try:
                     setattr(vs.codec_context, k, v)
@@ -395,11 +467,16 @@ class VideoWriter:
     def write_rgb(self, image: np.ndarray, pts: int | None = None) -> None:
         """Encode one RGB (uint8) frame; ``pts`` defaults to the frame count."""
         frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image[..., :3]), format="rgb24")
-        self._encode(frame.reformat(format=self._fmt), self.frames_written if pts is None else pts)
+        self._encode(frame.reformat(format=self._fmt, dst_color_range=self._range),
+                     self.frames_written if pts is None else pts)
 
     def _encode(self, frame: av.VideoFrame, pts: int | None) -> None:
-        if frame.format.name != self._out_fmt:  # the codec's own format (ProRes: 10-bit)
-            frame = frame.reformat(format=self._out_fmt)
+        if frame.format.name != self._out_fmt or self._range != self._out_range:
+            # The codec's own format (ProRes: 10-bit) or range (ProRes: limited).
+            frame = frame.reformat(format=self._out_fmt, src_color_range=self._range,
+                                   dst_color_range=self._out_range)
+        if self._out_range == "JPEG":
+            frame.color_range = FULL
         frame.pts = self.frames_written if self._numbered else pts
         frame.time_base = self._time_base
         try:
@@ -410,7 +487,13 @@ class VideoWriter:
         self.frames_written += 1
 
     def _refused(self, exc: av.FFmpegError) -> OutputError:
-        """Say that the encoder could not be opened or fed (a size or format it refuses)."""
+        """Say why the encoder could not be opened or fed.
+
+        A size or format it refuses, or a file the system would not write (its folder,
+        the disk).
+        """
+        if isinstance(exc, OSError) and exc.errno in _WRITE_ERRORS:
+            return cannot_write(self._path, exc)
         vs = self._vs
         return OutputError(f"the {self._codec} encoder refused {vs.width}x{vs.height} "
                            f"{self._out_fmt} ({exc.__class__.__name__}: {exc.strerror})")
