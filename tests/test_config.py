@@ -118,7 +118,8 @@ def test_auto_estimates_when_nothing_states_it(tmp_path):
     assert r.timing.readout == 0.42 and r.sources["readout"].startswith("estimated from the motion")
     weak = _resolve(CorrectionConfig(readout="auto"), tmp_path,
                     estimate=lambda direction, fps: _Estimate(1.0, reliable=False))
-    assert weak.sources["readout"] == "default" and weak.messages[0].startswith("warning")
+    assert weak.sources["readout"] == "default: the footage could not tell it"
+    assert weak.messages[0].startswith("warning")
 
 
 def test_a_readout_borrowed_from_another_aspect_goes_after_a_reliable_estimate(tmp_path):

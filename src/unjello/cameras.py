@@ -74,7 +74,8 @@ class CameraMatch:
     camera : str
         The camera matched.
     readout_ms : float
-        Median readout of the modes used (ms, positive).
+        The readout most of the modes' profiles agree on (ms, positive; a value they
+        state, not a mean).
     direction : str
         ``top-bottom``, or ``bottom-top`` where the profiles state negative readouts.
     profiles, agree : int
@@ -103,13 +104,15 @@ class CameraMatch:
     #: Whether the modes used share the clip's aspect ratio (a sensor mode's readout is
     #: its own: another aspect's is a guess). False where the clip's size is unknown.
     same_aspect: bool = False
+    #: The table's rows the readout was taken from (``unjello cameras`` marks them).
+    used: tuple[CameraMode, ...] = ()
 
     def describe(self) -> str:
         """One line: the readout, and what it rests on."""
         lo, hi = self.spread
-        rng = f"{lo:g}-{hi:g} ms" if hi - lo > 0.01 else f"{lo:g} ms"
-        return (f"camera database: {self.camera}, {self.modes}: readout {self.readout_ms:g} ms "
-                f"({self.agree} of {self.profiles} profile(s) agree; {rng})")
+        rng = f"{lo:.4g}-{hi:.4g} ms" if hi - lo > 0.01 else f"{lo:.4g} ms"
+        return (f"camera database: {self.camera}, {self.modes}: readout {self.readout_ms:.4g} ms "
+                f"({self.agree} of {self.profiles} profile(s) stating one agree; {rng})")
 
 
 @lru_cache(maxsize=1)
@@ -139,8 +142,12 @@ def search(text: str = "") -> list[CameraMode]:
             if all(w in _norm(f"{m.brand} {m.model} {m.mode}") for w in words)]
 
 
-def _camera_rows(camera: str) -> list[CameraMode]:
-    """Rows of one camera named by the user or by its file (brand and model)."""
+def _camera_rows(camera: str, family: bool = False) -> list[CameraMode]:
+    """Rows of one camera named by the user or by its file (brand and model).
+
+    ``family``: a name that fits several cameras (a file that says only ``GoPro``) gives
+    the rows of them all instead of an error.
+    """
     want = _norm(camera)
     rows = [m for m in table() if want in (_norm(m.name), _norm(f"{m.brand} {m.model}"),
                                            _norm(m.model))]
@@ -148,7 +155,7 @@ def _camera_rows(camera: str) -> list[CameraMode]:
         return rows
     partial = [m for m in table() if want in _norm(f"{m.brand} {m.model}")]
     names = sorted({m.name for m in partial})
-    if len(names) > 1:
+    if len(names) > 1 and not family:
         shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
         raise SettingsError(f"camera {camera!r} matches {len(names)} cameras ({shown}); "
                             "name one (see `unjello cameras`)")
@@ -156,7 +163,7 @@ def _camera_rows(camera: str) -> list[CameraMode]:
 
 
 def match(camera: str, width: int | None = None, height: int | None = None,
-          fps: float | None = None) -> CameraMatch | None:
+          fps: float | None = None, *, family: bool = False) -> CameraMatch | None:
     """Return what the table says of a clip's camera (the module notes give the order).
 
     Parameters
@@ -167,6 +174,10 @@ def match(camera: str, width: int | None = None, height: int | None = None,
         The clip's size (its aspect ratio picks the modes).
     fps : float, optional
         The clip's frame rate.
+    family : bool
+        Where ``camera`` fits several cameras (``GoPro``), pool their profiles (the
+        match is named ``GoPro (45 cameras)``; its ``agree`` says whether they agree)
+        instead of raising.
 
     Returns
     -------
@@ -177,9 +188,10 @@ def match(camera: str, width: int | None = None, height: int | None = None,
     Raises
     ------
     SettingsError
-        If ``camera`` names several cameras.
+        If ``camera`` names several cameras (and not ``family``).
     """
-    rows = _camera_rows(camera)
+    rows = _camera_rows(camera, family)
+    names = {m.name for m in rows}
     timed = [m for m in rows if m.readout_ms]
     if not timed:
         return None
@@ -211,13 +223,27 @@ def match(camera: str, width: int | None = None, height: int | None = None,
                   f"none is {aspect})")
     signed = np.concatenate([np.full(m.readout_n, m.readout_ms) for m in picked])
     values = np.abs(signed)
-    med = float(np.median(values))
-    agree = int(np.sum(np.abs(values - med) <= 0.05 * med))
+    med, agree = _best_supported(values)
     upward = int(np.sum(signed < 0)) > signed.size / 2
     lens = [m for m in rows if m.fx and same_aspect(m)] if width else []
     focal = (float(np.median([float(m.fx or 0.0) * float(width or 0) / m.width for m in lens]))
              if lens else None)
     ks = [m.k for m in lens if m.k]
-    return CameraMatch(picked[0].name, round(med, 4), "bottom-top" if upward else "top-bottom",
+    name = picked[0].name if len(names) == 1 else f"{camera} ({len(names)} cameras)"
+    return CameraMatch(name, round(med, 4), "bottom-top" if upward else "top-bottom",
                        int(values.size), agree, (float(values.min()), float(values.max())), label,
-                       focal, tuple(np.median(ks, axis=0).tolist()) if ks else None, sized)
+                       focal, tuple(np.median(ks, axis=0).tolist()) if ks else None, sized,
+                       tuple(picked))
+
+
+def _best_supported(values: np.ndarray) -> tuple[float, int]:
+    """Return the readout most profiles agree on (within 5 %), and how many do.
+
+    A value the profiles state, not a mean between disagreeing ones: where they split
+    (16.7 ms twice, 26.7 and 33.4 once) the larger group wins, and between groups of one
+    size the value nearest their median.
+    """
+    support = [int(np.sum(np.abs(values - v) <= 0.05 * v)) for v in values]
+    med = float(np.median(values))
+    best = min(range(values.size), key=lambda i: (-support[i], abs(values[i] - med), values[i]))
+    return float(values[best]), support[best]

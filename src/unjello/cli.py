@@ -248,9 +248,13 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "readout_estimate": est.as_json(costs=False) if est is not None else None,
             "gyro": decided["gyro"], "messages": messages}))
     elif not quiet:
+        also = [f"{p} ({what})" for p, what in ((preview, "side by side"),
+                                                 (motion_out, "motion"), (stmap, "STMaps"))
+                if p is not None]
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:.4g} "
                    f"({decided['sources']['readout']}), "
-                   f"{len(traj) / max(seconds, 1e-9):.1f} fps)", err=True)
+                   f"{len(traj) / max(seconds, 1e-9):.1f} fps)"
+                   + "".join(f" and {a}" for a in also), err=True)
 
 
 @cli.command()
@@ -480,6 +484,8 @@ def probe(input: Path, as_json: bool) -> None:
         click.echo("readout: not stated by the file, a sidecar or the camera database; "
                    "measure it (unjello readout), estimate it (unjello estimate-readout) or "
                    "pass --readout")
+    for line in d["warnings"]:
+        click.echo(_flagify(line))
     if d["lens"]:
         click.echo(f"lens: focal {d['lens']['focal']:.0f} px, fisheye k "
                    + ", ".join(f"{v:.3g}" for v in d["lens"]["distortion"]))

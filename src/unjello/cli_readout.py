@@ -74,7 +74,15 @@ def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
     rows, best = estimate_clips(inputs, direction=direction, max_frames=frames)
     if save_preset is not None:
         if not best.reliable:
-            raise UnjelloError(f"no preset written: {best.describe()}")
+            from .clip import database_readout
+
+            known = database_readout(inputs[0]) if len(inputs) == 1 else ""
+            raise UnjelloError(
+                f"no preset written: {best.describe()}"
+                + (f". The file names its camera, and correct takes its readout by itself "
+                   f"({known})" if known.startswith("camera database") else
+                   f". {known}" if known else ". Give correct --readout (ms or a fraction), "
+                   "or measure it: unjello readout"))
         tmp = temp_path(save_preset)
         tmp.write_text(json.dumps(readout_preset(best, direction, rows[0][1]), indent=1)
                        + "\n")
@@ -98,9 +106,19 @@ def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
 @click.argument("search", nargs=-1)
 @click.option("--all", "show_all", is_flag=True, help="Also the modes no profile gives a "
               "readout for.")
+@click.option("--size", help="A clip's WIDTHxHEIGHT: also say what correct takes for it "
+              "(with --fps), and mark the modes it rests on.")
+@click.option("--fps", type=click.FloatRange(min=0, min_open=True), help="A clip's frame rate.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per mode.")
-def cameras(search: tuple[str, ...], show_all: bool, as_json: bool) -> None:
-    """List the camera database's modes matching SEARCH (words of brand, model, mode)."""
+def cameras(search: tuple[str, ...], show_all: bool, size: str | None, fps: float | None,
+            as_json: bool) -> None:
+    """List the camera database's modes matching SEARCH (words of brand, model, mode).
+
+    Each mode's readout is the median of its profiles stating one; with --size and --fps
+    (as `unjello probe` shows a clip), the line `correct` prints for such a clip follows,
+    and the modes it rests on are marked with *.
+    """
+    from .cameras import match
     from .cameras import search as find
 
     modes = [m for m in find(" ".join(search)) if show_all or m.readout_ms]
@@ -111,15 +129,38 @@ def cameras(search: tuple[str, ...], show_all: bool, as_json: bool) -> None:
     if not modes:
         raise UnjelloError(f"no camera in the database matches {' '.join(search)!r}"
                            + ("" if show_all else " with a readout (try --all)"))
+    found = None
+    if size is not None or fps is not None:
+        try:
+            w, h = (int(v) for v in (size or "").lower().split("x"))
+        except ValueError:
+            raise UnjelloError(f"--size must look like 854x480, got {size!r}") from None
+        names = {m.name for m in modes}
+        if len(names) > 1:
+            raise UnjelloError(f"--size and --fps need one camera; {' '.join(search)!r} "
+                               f"matches {len(names)}: name one")
+        found = match(names.pop(), w, h, fps)
     from rich.console import Console
     from rich.table import Table
 
-    table = Table("camera", "mode", "size", "fps", "readout", "profiles",
-                  title=f"{len(modes)} mode(s); readout: median of the profiles stating one "
-                        "(agreeing within 5 % / stating); - : bottom to top")
+    used = set(found.used) if found is not None else set()
+    one = len({m.name for m in modes}) == 1  # the camera said once, above the table
+    table = Table("", *(() if one else ("camera",)), "mode", "size", "fps", "readout", "scan",
+                  "agree", "profiles", box=None, show_edge=False, pad_edge=False)
+    for column in table.columns:  # numbers whole; the names wrap where they must
+        column.no_wrap = column.header not in ("camera", "mode")
     for m in modes:
-        readout = (f"{m.readout_ms:g} ms ({m.readout_agree}/{m.readout_n})"
-                   if m.readout_ms else "")
-        table.add_row(m.name, m.mode, f"{m.width}x{m.height}", f"{m.fps:g}", readout,
+        timed = bool(m.readout_ms)
+        table.add_row("*" if m in used else "", *(() if one else (m.name,)), m.mode,
+                      f"{m.width}x{m.height}", f"{m.fps:g}",
+                      f"{abs(m.readout_ms or 0):.4g} ms" if timed else "",
+                      ("bottom-top" if (m.readout_ms or 0) < 0 else "top-bottom") if timed
+                      else "", f"{m.readout_agree}/{m.readout_n}" if timed else "",
                       str(m.profiles))
+    click.echo(f"{modes[0].name + ': ' if one else ''}{len(modes)} mode(s). readout: the "
+               "median of the mode's profiles that state one;")
+    click.echo("agree: how many of those are within 5 % of it / how many state one.")
     Console().print(table)
+    if found is not None:
+        click.echo(f"a {size} clip at {fps:g} fps gets: {found.describe()}" if fps else
+                   f"a {size} clip gets: {found.describe()}")

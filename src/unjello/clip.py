@@ -30,7 +30,7 @@ from .readout import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
 from .trajectory import Trajectory
 
-__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming", "describe"]
+__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming", "describe", "database_readout"]
 
 
 
@@ -152,7 +152,10 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
                 messages.append(f"the lens profile {profile.name} states no "
                                 "frame_readout_time")
         stated = stated or (None if is_pipe(path) else stated_readout(path))
-        found = None if stated is not None else _database(config, identified, size, fps)
+        found, vague = (None, "") if stated is not None else _database(config, identified,
+                                                                        size, fps)
+        if vague:
+            messages.append(vague)
         if (found is not None and not found.same_aspect and request == "auto"
                 and estimate is not None):
             # A readout borrowed from sensor modes of another aspect ratio is a guess: a
@@ -184,7 +187,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
                                 f"{est.readout:.3f} of the frame interval (+-"
                                 f"{est.uncertainty:.3f}, confidence {est.confidence:.2f})")
             else:
-                sources["readout"] = "default"
+                sources["readout"] = "default: the footage could not tell it"
                 messages.append(f"warning: the footage cannot tell the readout "
                                 f"({est.note or 'its motion and lines do not change enough'}; "
                                 f"confidence {est.confidence:.2f}); using {est.readout:g}")
@@ -239,19 +242,43 @@ def _disagreement(est: Any, readout: float, lo: float, hi: float, source: str) -
 
 
 def _database(config: CorrectionConfig, identified: str | None,
-              size: tuple[int, int] | None, fps: float) -> CameraMatch | None:
-    """Return the camera database's match for the camera given, else the one the file names."""
+              size: tuple[int, int] | None, fps: float) -> tuple[CameraMatch | None, str]:
+    """Return the camera database's match for the camera given, else the one the file names.
+
+    A camera the user names must be in the database, once; one the file names vaguely
+    (``GoPro``) is a hint: the cameras it fits are used where most of their profiles
+    agree, else none. The second value is the warning that says so ('' if none).
+    """
     name = config.camera or identified
     if not name:
-        return None
+        return None, ""
     w, h = size if size else (None, None)
-    found = match(name, w, h, fps)
+    note = ""
+    try:
+        found = match(name, w, h, fps)
+    except SettingsError:
+        if config.camera:
+            raise
+        found = match(name, w, h, fps, family=True)
+        if found is not None:
+            lo, hi = found.spread
+            if 2 * found.agree > found.profiles:
+                note = (f"warning: the file names its camera only as {name!r}; the camera "
+                        f"database's {found.camera}, {found.modes}, mostly agree on "
+                        f"{found.readout_ms:g} ms, which is used (name the camera with "
+                        "--camera to be sure)")
+            else:
+                note = (f"warning: the file names its camera only as {name!r}, and the "
+                        f"camera database's {found.camera} disagree ({lo:g}-{hi:g} ms); "
+                        "the default readout is used (name the camera with --camera, or "
+                        "give --readout)")
+                found = None
     if found is None and config.camera:
         raise SettingsError(f"camera {config.camera!r}: the camera database has no readout "
                             "for it (see `unjello cameras`)")
     if found is not None and found.readout_ms * fps / 1000.0 > 1.02:
-        return None  # a profile of another frame rate, longer than this clip's frames
-    return found
+        return None, note  # a profile of another frame rate, longer than this clip's frames
+    return found, note
 
 
 def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
@@ -306,6 +333,22 @@ def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
     return config, resolved, gyro_log, own, report, distrust
 
 
+def database_readout(path: Path) -> str:
+    """Say what the camera database knows of the camera a video file names ('' if nothing).
+
+    One line naming the camera, the modes and the readout ``correct`` would take from it
+    by itself (a folder, or a file that names no known camera: '').
+    """
+    if is_pipe(path) or Path(path).is_dir():
+        return ""
+    camera = camera_of(path)
+    if not camera:
+        return ""
+    info = probe(path)
+    found, vague = _database(CorrectionConfig(), camera, (info.width, info.height), info.fps)
+    return found.describe() if found is not None else vague.removeprefix("warning: ")
+
+
 def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, int],
                fps: float, profile: LensProfile | None = None
                ) -> tuple[CorrectionConfig, tuple[str, ...]]:
@@ -321,7 +364,12 @@ def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, in
         profile = profile or read_lens_profile(config.lens_profile)
         lens, source = profile.lens(size[0]), f"lens profile {profile.name}"
     elif camera:
-        found = match(camera, size[0], size[1], fps)
+        try:
+            found = match(camera, size[0], size[1], fps)
+        except SettingsError:  # the file names several cameras: their lenses differ
+            if config.camera:
+                raise
+            found = None
         if found is not None and found.focal is not None and found.k is not None:
             lens, source = (found.focal, found.k), f"camera database ({found.camera})"
     if lens is None:
@@ -348,12 +396,13 @@ def describe(path: Path) -> dict[str, Any]:
         config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), path, source)
         first = next(source.pictures(limit=1)).planes[0] if folder else None
     said = resolved.sources["readout"]
-    stated = said != "default"
+    stated = not said.startswith("default")
     ms = resolved.timing.readout / resolved.fps * 1e3
     g = config.gyro
     lens = ({"focal": round(g.focal, 2), "distortion": list(g.distortion)}
             if g.focal is not None and g.distortion is not None else None)
-    common = {"readout": round(resolved.timing.readout, 6) if stated else None,
+    common = {"warnings": [m for m in resolved.messages if m.startswith("warning")],
+              "readout": round(resolved.timing.readout, 6) if stated else None,
               "readout_ms": round(ms, 4) if stated else None,
               "readout_source": said if stated else None,
               "direction": resolved.timing.direction, "lens": lens}

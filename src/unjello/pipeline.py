@@ -401,6 +401,9 @@ def correct_video(
                                   workers=workers)
             sink = PictureSink(dst_p, source, config.encode, resolved.fps)
             _stream(source, sink, corrector, side, traj, resolved, progress)
+        if log and source.damaged:
+            log(f"warning: {source.damaged} frame(s) of the input were damaged (the decoder "
+                "patched over the errors); they and their corrections may show blocks")
     if report and corrector.gyro is not None:
         if corrector.gyro.fallback:
             report.update(used=False, why=corrector.gyro.fallback)

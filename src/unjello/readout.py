@@ -286,8 +286,11 @@ class ReadoutEstimate:
         if not self.reliable:
             why = self.note or ("neither its motion nor its straight lines change enough to "
                                 "tell (a steady pan, two frames, a still or flat view)")
-            return (f"readout unknown: {why} (confidence {self.confidence:.2f}); "
-                    f"default {self.readout:g}")
+            return (f"readout unknown: {why} (confidence {self.confidence:.2f}; "
+                    f"{self.readout:g}, the whole frame interval, unless told otherwise)"
+                    if self.readout == 1.0 else
+                    f"readout unknown: {why} (confidence {self.confidence:.2f}; "
+                    f"{self.readout:g} unless told otherwise)")
         rest = {"motion": f"{self.model} motion model", "lines": "the lean of straight lines",
                 "pooled": "clips pooled"}.get(self.cue, self.cue)
         if self.note:

@@ -132,6 +132,11 @@ class FrameSource:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    @property
+    def damaged(self) -> int:
+        """Video frames read so far that the decoder flagged as damaged (0 for a folder)."""
+        return self.reader.damaged if self.reader is not None else 0
+
     def close(self) -> None:
         """Close the video file."""
         if self.reader is not None:

@@ -288,6 +288,8 @@ class VideoReader:
         self.work_format = _work_format(self._vs.codec_context.pix_fmt)
         #: Full-range levels (0-255, as GoPros and many phones write): kept as they are.
         self.full_range = self.info.color.get("color_range") == FULL
+        #: Frames the decoder flagged as damaged (errors it concealed) so far.
+        self.damaged = 0
         self.audio = list(self._c.streams.audio)
 
     def __enter__(self) -> VideoReader:
@@ -321,6 +323,8 @@ class VideoReader:
                     continue
                 for frame in packet.decode():
                     assert isinstance(frame, av.VideoFrame)
+                    if frame.is_corrupt:
+                        self.damaged += 1
                     yield "video", self._planes(frame), frame.pts
         except av.FFmpegError as exc:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
