@@ -269,7 +269,7 @@ def _database(config: CorrectionConfig, identified: str | None,
                         "--camera to be sure)")
             else:
                 note = (f"warning: the file names its camera only as {name!r}, and the "
-                        f"camera database's {found.camera} disagree ({lo:g}-{hi:g} ms); "
+                        f"camera database's {found.camera} disagree ({lo:.4g}-{hi:.4g} ms); "
                         "the default readout is used (name the camera with --camera, or "
                         "give --readout)")
                 found = None

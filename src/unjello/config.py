@@ -37,7 +37,9 @@ from .stabilize import StabilizeConfig, crop_request
 from .timing import (
     DIRECTIONS,
     REFERENCES,
+    ClipSpan,
     ReadoutRequest,
+    clip_time,
     readout_request,
 )
 from .warp import FILLS, WARPS
@@ -85,6 +87,8 @@ class CorrectionConfig:
         Encoder of an output video.
     threads : int
         Threads for the frames' flows (0: one per core; :mod:`unjello.parallel`).
+    span : ClipSpan
+        The part of the clip to correct (``start``, ``duration``; default all of it).
 
     Examples
     --------
@@ -110,6 +114,7 @@ class CorrectionConfig:
     stabilize: StabilizeConfig = field(default_factory=StabilizeConfig)
     encode: EncodeOptions = field(default_factory=EncodeOptions)
     threads: int = 0
+    span: ClipSpan = field(default_factory=ClipSpan)
     #: Where the timing settings came from (``{"readout": "preset my.json"}``).
     origins: Mapping[str, str] = field(default_factory=dict, compare=False, repr=False)
 
@@ -343,6 +348,10 @@ def _show_coefficients(value: Any) -> Any:
     return None if value is None else ",".join(f"{v:g}" for v in value)
 
 
+def _show_time(value: Any) -> Any:
+    return None if value is None else str(value)
+
+
 def _ms_to_s(value: Any) -> Any:
     return None if value is None else value / 1e3
 
@@ -412,6 +421,12 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "model, as in Gyroflow's lens profiles) for the gyro method; default: the lens "
            "profile's or the camera database's, else none (a pinhole).", per_clip=True,
            to_field=_coefficients, from_field=_show_coefficients),
+    Option("start", "span.start", "Correct from this time of the clip on: seconds (12.5, "
+           "1:02.5) or frames (150f); the motion is still measured from the frames around.",
+           to_field=clip_time, from_field=_show_time, per_clip=True),
+    Option("duration", "span.duration", "Correct this long a part of the clip (seconds or "
+           "frames, as --start); the output's time starts at zero and its audio is cut to "
+           "match.", to_field=clip_time, from_field=_show_time, per_clip=True),
     Option("stabilize", "stabilize.enabled", "Also stabilise: render every frame at a "
            "smoothed camera path, in the same warp as the correction.", kind="flag"),
     Option("smoothness", "stabilize.smoothness", "Stabilisation: how smooth the camera path "

@@ -11,6 +11,7 @@ with vibration), so that many frames are held, however long the clip.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections import deque
 from collections.abc import Callable, Iterable, MutableMapping, Sequence
@@ -178,6 +179,11 @@ class Corrector:
             motions = self._stabilizer.push(motions, tracks, self._poses(motions))
         self._count += 1
         return self._apply(motions)
+
+    @property
+    def pushed(self) -> int:
+        """Pictures pushed so far (those read around a part of the clip too)."""
+        return self._count
 
     @property
     def method(self) -> str:
@@ -382,6 +388,9 @@ def correct_video(
     side = SideOutputs(motion_out, stmap, preview, config.encode)
     for extra in side.paths:
         check_new(extra, overwrite)
+    if motion_in is not None and not config.span.whole:
+        raise SettingsError("motion_in= replays the motion of a whole clip: leave out start= "
+                            "and duration=, or cut the clip first")
     given = Trajectory.load(motion_in) if motion_in is not None else None
     with FrameSource(src_p) as source:
         config, resolved, gyro_log, own, report, distrust = resolve_clip(
@@ -400,7 +409,7 @@ def correct_video(
                                   gyro_fallback=distrust or own is not None, executor=pool,
                                   workers=workers)
             sink = PictureSink(dst_p, source, config.encode, resolved.fps)
-            _stream(source, sink, corrector, side, traj, resolved, progress)
+            _stream(source, sink, corrector, side, traj, resolved, progress, config)
         if log and source.damaged:
             log(f"warning: {source.damaged} frame(s) of the input were damaged (the decoder "
                 "patched over the errors); they and their corrections may show blocks")
@@ -414,37 +423,60 @@ def correct_video(
                 "method measured the motion instead")
         if on_gyro:
             on_gyro(report)
-    if log and len(traj) == 1:
+    if log and corrector.pushed == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
     return traj
 
 
 
 def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: SideOutputs,
-            traj: Trajectory, resolved: ResolvedTiming, progress: Progress | None) -> None:
-    """Run the driver loop: every picture in, corrected out, side outputs beside it."""
+            traj: Trajectory, resolved: ResolvedTiming, progress: Progress | None,
+            config: CorrectionConfig = CorrectionConfig()) -> None:
+    """Run the driver loop: every picture in, corrected out, side outputs beside it.
+
+    With a part of the clip (``config.span``), the pictures read around it go through
+    the motion method but are not written, and reading stops once the part's last
+    picture is out (its look-ahead read).
+    """
     held: deque[Picture] = deque()
+    span = config.span
+    total = source.info.frames
+    if not span.whole:
+        rest = max(0.0, total - (span.start.frames(resolved.fps) if span.start else 0.0))
+        total = round(min(span.duration.frames(resolved.fps), rest) if span.duration
+                      else rest) if total else 0
+    first: list[float] = []  # the first picture written's start: the output's time zero
 
     def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
         if corrector.gyro is not None:  # before the motion JSON's header is written
             traj.method = corrector.method
         for planes, fm in items:
             picture = held.popleft()
+            if not picture.keep:  # read around the part asked for: its motion only
+                continue
+            if not span.whole:  # numbered and timed from the part's start
+                first[:1] = first[:1] or [fm.start]
+                fm = dataclasses.replace(fm, index=len(traj), start=fm.start - first[0])
             sink.write(picture, planes)
             side.frame(picture.planes, planes, fm, resolved.timing, picture.pts)
             traj.frames.append(_light(fm))
             if progress:
-                progress(sink.frames_written, source.info.frames)
+                progress(sink.frames_written, total)
 
+    # Ahead of a part: the stabiliser's smoothing window, or a second, for the motion.
+    before = math.ceil(resolved.fps * max(1.0, 2.0 * config.stabilize.smoothness))
     try:
         side.start(source, traj, resolved.fps)
-        for item in source.items(resolved.fps):
+        for item in source.items(resolved.fps, span, before):
             if not isinstance(item, Picture):
                 sink.copy_audio(item)
                 continue
             held.append(item)
             emit(corrector.push(item.planes, item.start))
-        emit(corrector.flush())
+            if source.past_end and not any(p.keep for p in held):
+                break  # the part is written: no need to read on
+        else:
+            emit(corrector.flush())
         traj.vibration = corrector.vibration
         sink.close()
         side.finish()

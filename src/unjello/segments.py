@@ -255,6 +255,9 @@ def correct_segmented(
                          else f"{src_p}: no such file or folder")
     check_paths(src_p, dst_p, overwrite)
     check_output(config.encode.codec, config.encode.profile, dst_p)
+    if not config.span.whole:
+        raise SettingsError("a part of a clip (start=, duration=) is corrected in one run: "
+                            "leave out segments")
     if config.method == "gyro":
         raise SettingsError("segments take the dense or the paper method; a gyro's "
                             "calibration is made over the whole clip: correct it in one run")

@@ -72,10 +72,11 @@ class RunSummary:
                        ": one-second window, as with --vibration on (--vibration off: never)")
         if self.kept:
             index, share = max(self.kept, key=lambda k: k[1])
-            out.append(f"warning: on {len(self.kept)} frame(s) the per-pixel motion folded or "
-                       f"tore the picture, or failed on an object that did in the frame "
-                       f"before (a fast-spinning object?); there it was given the motion "
-                       f"around it (at most {100 * share:.0f}% of frame {index})")
+            # What the output shows (whole objects), not what was repaired on the way.
+            out.append(f"kept whole: on {len(self.kept)} frame(s) an object moved in a way "
+                       f"the per-pixel motion could not follow (a fast-spinning object?); it "
+                       f"is shown whole, moved with what is around it (at most "
+                       f"{100 * share:.0f}% of frame {index})")
         if self.folded:
             index, share = max(self.folded, key=lambda k: k[1])
             out.append(f"warning: the correction folds or tears the picture on "

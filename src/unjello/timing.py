@@ -301,3 +301,86 @@ def pixel_grid(height: int, width: int, top: int = 0, left: int = 0
     gy = np.broadcast_to(np.arange(top, top + height, dtype=np.float32)[:, None],
                          (height, width))
     return gx, gy
+
+
+@dataclass(frozen=True)
+class ClipTime:
+    """A point or a length of a clip, in seconds or in frames (``--start``, ``--duration``).
+
+    Attributes
+    ----------
+    value : float
+        How many seconds, or frames.
+    unit : {'s', 'f'}
+        Seconds (as ffmpeg's ``-ss``/``-t``) or frames.
+    """
+
+    value: float
+    unit: Literal["s", "f"] = "s"
+
+    def __str__(self) -> str:
+        return f"{self.value:g}{'s' if self.unit == 's' else 'f'}"
+
+    def frames(self, fps: float) -> float:
+        """Return the time in frames at ``fps``."""
+        return self.value if self.unit == "f" else self.value * fps
+
+    def seconds(self, fps: float) -> float:
+        """Return the time in seconds at ``fps``."""
+        return self.value if self.unit == "s" else self.value / fps
+
+
+_CLOCK = re.compile(r"^(?:(\d+):)?(\d+):(\d+(?:\.\d*)?)$")
+
+
+def clip_time(value: float | str | ClipTime | None) -> ClipTime | None:
+    """Read a time of a clip: seconds (``12.5``, ``12.5s``, ``1:02.5``) or frames (``150f``).
+
+    Examples
+    --------
+    >>> clip_time("1:02.5"), clip_time("150f")
+    (ClipTime(value=62.5, unit='s'), ClipTime(value=150.0, unit='f'))
+
+    Raises
+    ------
+    SettingsError
+        Anything else, or a negative time.
+    """
+    if value is None or isinstance(value, ClipTime):
+        return value
+    text = str(value).strip().lower()
+    clock = _CLOCK.match(text)
+    try:
+        if clock:
+            h, m, s = clock.groups()
+            out = ClipTime(int(h or 0) * 3600 + int(m) * 60 + float(s))
+        elif re.fullmatch(r"[\d.]+\s*(f|frames?)", text):
+            out = ClipTime(float(re.sub(r"\s*(f|frames?)$", "", text)), "f")
+        else:
+            out = ClipTime(float(text.removesuffix("s").strip()))
+    except ValueError:
+        raise SettingsError(f"{value!r} is not a time of the clip: give seconds (12.5, "
+                            "1:02.5) or frames (150f)") from None
+    if not (out.value >= 0 and np.isfinite(out.value)):
+        raise SettingsError(f"a time of the clip cannot be negative, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class ClipSpan:
+    """The part of a clip to correct: from ``start`` for ``duration`` (None: all of it).
+
+    Its motion is still measured from the frames around it (:mod:`unjello.io.source`).
+    """
+
+    start: ClipTime | None = None
+    duration: ClipTime | None = None
+
+    def __post_init__(self) -> None:
+        if self.duration is not None and self.duration.value <= 0:
+            raise SettingsError("duration must be more than 0")
+
+    @property
+    def whole(self) -> bool:
+        """Whether it is the whole clip."""
+        return (self.start is None or self.start.value == 0) and self.duration is None

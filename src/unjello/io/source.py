@@ -14,10 +14,12 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
+from ..timing import ClipSpan
 from .frames import list_frames, read_image
 from .video import VideoReader, is_pipe
 
@@ -70,12 +72,16 @@ class Picture:
         A video frame's presentation timestamp (kept on output).
     name : str or None
         A folder image's file name (kept on output).
+    keep : bool
+        Whether it is in the part of the clip asked for (:meth:`FrameSource.items`);
+        False for a frame read around it, for its motion only.
     """
 
     planes: list[np.ndarray]
     start: float
     pts: int | None = None
     name: str | None = None
+    keep: bool = True
 
 
 def _describe(img: np.ndarray) -> str:
@@ -109,6 +115,8 @@ class FrameSource:
         if not self.pipe and not self.path.exists():
             raise InputError(f"{self.path}: no such file or folder")
         self.reader: VideoReader | None = None
+        #: Whether :meth:`items` has passed the end of the part of the clip asked for.
+        self.past_end = False
         if not self.pipe and self.path.is_dir():
             self._files = list_frames(self.path)
             self._first = read_image(self._files[0])
@@ -142,7 +150,8 @@ class FrameSource:
         if self.reader is not None:
             self.reader.close()
 
-    def items(self, fps: float | None = None) -> Iterator[Picture | object]:
+    def items(self, fps: float | None = None, span: ClipSpan | None = None,
+              before: int = 0) -> Iterator[Picture | object]:
         """Yield every :class:`Picture` in order, and a video's audio packets among them.
 
         Parameters
@@ -151,38 +160,78 @@ class FrameSource:
             The frame rate whose interval is the unit of the start times (default the
             video's own); a video frame starts at ``(pts - pts_0) * time_base * fps``,
             so a variable frame rate is kept. A folder's frame ``i`` starts at ``i``.
+        span : ClipSpan, optional
+            Only a part of the clip: its pictures come with ``keep`` set, their pts
+            shifted so that the first is 0, and the audio packets within it, shifted
+            alike. Around them come ``before`` pictures ahead of it and every picture
+            after it (``keep`` False, for the motion's look-behind and look-ahead: the
+            caller stops reading when it has what it needs; :attr:`past_end` says when
+            the part is over). A video file is entered by seeking near the part's start.
+        before : int
+            Pictures read ahead of the span's start.
 
         Raises
         ------
         InputError
             A folder image that differs in size from the first, an undecodable frame,
-            or a video without frames.
+            a video without frames, or a span that starts after the clip's end.
         """
+        rate = float(fps or self.info.fps or 30.0)
+        window = _Window(span, rate, before) if span is not None and not span.whole else None
+        self.past_end = False
         if self.reader is None:
             for i, f in enumerate(self._files):
+                keep = True
+                if window is not None:
+                    keep = window.keep(i / rate)
+                    if keep is None:
+                        continue
+                    self.past_end = window.over
                 img = self._first if i == 0 else read_image(f)
                 if img.shape != self._first.shape:
                     raise InputError(
                         f"{f.name}: {_describe(img)} differs from the first frame's "
                         f"{_describe(self._first)} (a folder must hold one clip's frames)")
-                yield Picture([img], float(i), name=f.name)
+                yield Picture([img], float(i), name=f.name, keep=keep)
+            if window is not None:
+                window.check(self.path)
             return
-        rate = float(fps or self.info.fps or 30.0)
         tb = float(self.info.time_base or 0)
         first: int | None = None
+        if window is not None and not self.pipe and window.seek_to > 1.0:
+            first = self.reader.start_pts()
+            self.reader.seek(first + int(window.seek_to / tb))
         n = 0
         for kind, item, pts in self.reader.packets():
             if kind == "audio":
-                yield item
+                if window is None:
+                    yield item
+                else:
+                    yield from window.audio(item)
                 continue
             if first is None and pts is not None:
                 first = pts
-            start = (pts - first) * tb * rate if pts is not None and first is not None \
-                else float(n)
-            yield Picture(item, start, pts=pts)  # type: ignore[arg-type]
+            if window is not None and first is not None:
+                window.zero = first * tb
+            known = pts is not None and first is not None
+            start = (pts - first) * tb * rate if known else float(n)  # type: ignore[operator]
             n += 1
+            if window is None:
+                yield Picture(item, start, pts=pts)  # type: ignore[arg-type]
+                continue
+            keep = window.keep(start / rate)
+            if keep is None:
+                continue
+            self.past_end = window.over
+            shifted = (pts - first - round(window.offset / tb)  # type: ignore[operator]
+                       if keep and known else pts)
+            yield Picture(item, start, pts=shifted, keep=keep)  # type: ignore[arg-type]
+            if keep:
+                yield from window.audio(None)  # what waited for the first picture's time
         if n == 0:
             raise InputError(f"{self.path}: the video has no frames")
+        if window is not None:
+            window.check(self.path)
 
     def pictures(self, fps: float | None = None, limit: int | None = None
                  ) -> Iterator[Picture]:
@@ -207,3 +256,69 @@ def read_frames(path: str | os.PathLike) -> Iterator[np.ndarray]:
     else:
         with VideoReader(p) as reader:
             yield from reader.rgb_frames()
+
+
+class _Window:
+    """Which pictures and audio packets of a :class:`ClipSpan` are kept, and their shift.
+
+    Times are seconds from the clip's first frame. The kept part starts at the first
+    picture at or after ``span.start`` (its time is the output's zero) and lasts
+    ``span.duration`` (seconds, or a count of pictures).
+    """
+
+    def __init__(self, span: ClipSpan, rate: float, before: int) -> None:
+        self.rate = rate
+        self.start = span.start.seconds(rate) if span.start is not None else 0.0
+        self.count = (round(span.duration.value) if span.duration is not None
+                      and span.duration.unit == "f" else None)
+        self.length = (span.duration.seconds(rate) if span.duration is not None
+                       else float("inf"))
+        self.first = self.start - before / rate  # the look-behind's first picture
+        self.seek_to = max(0.0, self.first - 1.0 / rate)
+        self.offset: float | None = None  # the first kept picture's time
+        self.zero = 0.0  # the clip's first picture's time in the file (its audio's clock)
+        self.end = self.start + self.length  # until the first picture is known
+        self.kept = 0
+        self.over = False
+        self._waiting: list[Any] = []  # audio packets before the first kept picture
+
+    def keep(self, t: float) -> bool | None:
+        """Return whether the picture at ``t`` is kept; None: not even read around it."""
+        slack = 0.25 / self.rate  # times round to the time base
+        if t < self.first - slack:
+            return None
+        inside = (not self.over and t >= self.start - slack
+                  and (self.kept < self.count if self.count is not None
+                       else t < self.end - slack))
+        if inside:
+            if self.offset is None:
+                self.offset = t
+                self.end = t + (self.count / self.rate if self.count is not None
+                                else self.length)
+            self.kept += 1
+            if self.count is not None and self.kept == self.count:
+                self.end = t + 1.0 / self.rate
+        elif self.offset is not None:
+            self.over = True
+        return inside
+
+    def audio(self, packet: Any) -> Iterator[Any]:
+        """Yield the audio packets of the kept part, shifted; None: release those waiting."""
+        if packet is not None and self.offset is None:
+            self._waiting.append(packet)
+            return
+        for p in [*self._waiting, *([packet] if packet is not None else [])]:
+            tb = float(p.time_base)
+            t = float(p.pts) * tb - self.zero
+            if self.offset is not None and self.offset - 1e-6 <= t < self.end:
+                shift = round((self.zero + self.offset) / tb)
+                p.pts -= shift
+                if p.dts is not None:
+                    p.dts -= shift
+                yield p
+        self._waiting = []
+
+    def check(self, path: Path) -> None:
+        """Refuse a part that starts after the clip's end."""
+        if self.offset is None:
+            raise InputError(f"{path}: --start {self.start:g} s is past the clip's end")

@@ -329,6 +329,10 @@ class VideoReader:
         except av.FFmpegError as exc:
             raise InputError(f"{self.info.path}: decoding failed ({exc})") from None
 
+    def start_pts(self) -> int:
+        """Return the pts of the video's first frame (its stream's start time, else 0)."""
+        return int(self._vs.start_time or 0)
+
     def seek(self, pts: int) -> None:
         """Go to the keyframe at or before ``pts`` (the video stream's time base)."""
         self._c.seek(pts, stream=self._vs, backward=True, any_frame=False)
