@@ -12,10 +12,10 @@ from unjello.timing import SensorTiming
 def motion_file_error(path, sim):
     """Mean per-scanline displacement error of a motion JSON against the simulator's truth,
     and the uncorrected error (px)."""
-    import json
+    from unjello.trajectory import Trajectory
 
-    frames = json.loads(path.read_text())["frames"]
-    err = np.mean([np.abs(np.asarray(f["displacement"]) - s.motion.displacement).mean()
+    frames = Trajectory.load(path).frames
+    err = np.mean([np.abs(f.displacement - s.motion.displacement).mean()
                    for f, s in zip(frames, sim, strict=True)])
     return err, np.mean([np.abs(s.motion.displacement).mean() for s in sim])
 

@@ -1,6 +1,7 @@
 """Every bad input: one clear line, a non-zero exit (or 0 with a warning), input untouched."""
 
 import os
+from pathlib import Path
 
 import av
 import numpy as np
@@ -192,3 +193,97 @@ def test_folder_with_frames_of_different_channels(tmp_path, scene):
     write_image(src / "b.png", np.dstack([small, np.full(small.shape[:2], 255, np.uint8)]))
     line = clean_failure(run("correct", src, "-o", tmp_path / "out"))
     assert "3 channels" in line and "4 channels" in line
+
+
+@pytest.fixture
+def refusing_folder(tmp_path, monkeypatch):
+    """A folder that the access check passes but that refuses writes (an ACL, a network
+    share): a chmod 500 folder, or for root (which writes anywhere) /sys."""
+    if os.geteuid() != 0:
+        folder = tmp_path / "ro"
+        folder.mkdir()
+        folder.chmod(0o500)
+    else:
+        folder = Path("/sys")
+        try:
+            (folder / ".unjello-probe").touch()
+        except OSError:
+            pass
+        else:
+            pytest.skip("/sys is writable here: no folder refuses root's writes")
+    import unjello.io.sink as sink
+
+    monkeypatch.setattr(sink.os, "access", lambda *a, **k: True)
+    return folder
+
+
+@pytest.mark.parametrize("name", ["o.mp4", "frames_out"])
+def test_an_output_the_folder_refuses_is_one_line(refusing_folder, tmp_path, good, scene,
+                                                   name):
+    if name == "frames_out":  # a folder of frames makes a folder
+        src = tmp_path / "frames"
+        src.mkdir()
+        for i in range(2):
+            write_image(src / f"{i}.png", scene[:64, :96])
+    else:
+        src = good
+    line = clean_failure(run("correct", src, "-o", refusing_folder / name, "-q"))
+    assert line == f"unjello: error: cannot write the output: the folder {refusing_folder} " \
+                   "is not writable"
+
+
+def test_a_folder_of_frames_into_a_video_name_makes_a_video(tmp_path, scene):
+    src = tmp_path / "frames"
+    src.mkdir()
+    for i in range(5):
+        write_image(src / f"f{i}.png", np.ascontiguousarray(scene[4 * i:4 * i + 96, :128]))
+    res = run("correct", src, "-o", tmp_path / "out.mp4", "--fps", "25", "-q")
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "out.mp4").is_file()
+    with av.open(str(tmp_path / "out.mp4")) as c:
+        vs = c.streams.video[0]
+        assert (vs.codec_context.width, vs.codec_context.height) == (128, 96)
+        assert vs.average_rate == 25 and sum(1 for _ in c.decode(video=0)) == 5
+    odd = tmp_path / "odd"
+    odd.mkdir()
+    for i in range(2):
+        write_image(odd / f"{i}.png", scene[:65, :97])
+    line = clean_failure(run("correct", odd, "-o", tmp_path / "odd.mp4"))
+    assert "even width and height" in line and not (tmp_path / "odd.mp4").exists()
+
+
+def test_a_damaged_clip_is_said(tmp_path, good):
+    """Random bytes in the middle: the decoder patches over them; the run says how many
+    frames were damaged."""
+    src = tmp_path / "damaged.mp4"
+    data = bytearray(good.read_bytes())
+    rng = np.random.default_rng(1)
+    middle = len(data) // 2
+    data[middle:middle + 200] = rng.integers(0, 256, 200, dtype=np.uint8).tobytes()
+    src.write_bytes(bytes(data))
+    res = run("correct", src, "-o", tmp_path / "o.mp4", "-q")
+    assert res.returncode == 0, res.stderr
+    assert "frame(s) of the input were damaged" in res.stderr
+    quiet = run("correct", good, "-o", tmp_path / "o2.mp4", "-q")
+    assert "damaged" not in quiet.stderr
+
+
+def test_unreadable_files_say_why_in_the_users_terms(tmp_path, good):
+    empty, cut, text = tmp_path / "empty.mp4", tmp_path / "cut.mp4", tmp_path / "notes.mp4"
+    empty.write_bytes(b"")
+    cut.write_bytes(good.read_bytes()[:300])
+    text.write_text("shopping list\n")
+    said = {p.name: clean_failure(run("probe", p)) for p in (empty, cut, text)}
+    assert said["empty.mp4"].endswith("empty.mp4: the file is empty")
+    assert "cut short or damaged" in said["cut.mp4"]
+    assert said["notes.mp4"].endswith("not a video file (no container FFmpeg knows)")
+    assert not any("PyAV" in s or "InvalidDataError" in s for s in said.values())
+
+
+def test_frames_too_small_give_the_minimum(tmp_path):
+    src = tmp_path / "tiny"
+    src.mkdir()
+    for i in range(2):
+        write_image(src / f"{i}.png", np.zeros((1, 1, 3), np.uint8))
+    line = clean_failure(run("correct", src, "-o", tmp_path / "out"))
+    assert "1x1 are too small (unjello needs at least 16x16)" in line

@@ -1,5 +1,6 @@
 """unjello between two ffmpeg commands: standard input and output (NUT, y4m), broken pipes."""
 
+import json
 import os
 import pty
 import shutil
@@ -13,6 +14,8 @@ import pytest
 from tests.clips import audio_packets, make_clip
 from unjello.config import CorrectionConfig
 from unjello.pipeline import correct_video
+from unjello.simulate import Motion, simulate
+from unjello.timing import SensorTiming
 
 FFMPEG = shutil.which("ffmpeg")
 needs_ffmpeg = pytest.mark.skipif(FFMPEG is None, reason="needs the ffmpeg program "
@@ -98,3 +101,40 @@ def test_auto_readout_on_standard_input_is_one_line(clip, tmp_path):
                              capture_output=True, text=True, timeout=120)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "--readout auto reads the clip twice" in res.stderr
+
+
+@needs_ffmpeg
+@pytest.mark.parametrize("pix_fmt", ["yuvj420p", "yuv420p"])
+def test_a_pipe_keeps_the_colour_tags_and_levels(tmp_path, scene, pix_fmt):
+    """NUT has no field for colour tags: a tagged clip's frames cross the pipe as
+    lossless H.264, which carries them, so `| ffmpeg -i - out.mov` keeps range, matrix,
+    primaries and transfer, and the same levels."""
+    src = tmp_path / "tagged.mp4"
+    with av.open(str(src), "w") as out:
+        vs = out.add_stream("libx264", rate=30)
+        vs.width, vs.height, vs.pix_fmt = 160, 120, pix_fmt
+        cc = vs.codec_context
+        cc.color_primaries, cc.color_trc, cc.colorspace = 1, 1, 1  # BT.709
+        cc.color_range = 2 if pix_fmt == "yuvj420p" else 1
+        for s in simulate(scene, Motion("pan", speed=5), SensorTiming(0.9), 8,
+                          size=(160, 120)):
+            frame = av.VideoFrame.from_ndarray(s.rolling, format="rgb24")
+            for p in vs.encode(frame.reformat(format=pix_fmt,
+                                              dst_color_range=cc.color_range)):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+    out = tmp_path / "out.mov"
+    res = _shell(f"{FFMPEG} -v error -i {src} -c copy -f nut - | {UNJELLO} correct - -o - "
+                 f"--readout 0.9 -q | {FFMPEG} -v error -y -i - -c:v libx264 {out}", tmp_path)
+    assert res.returncode == 0, res.stderr
+    probe = subprocess.run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries",
+                            "stream=color_range,color_space,color_primaries,color_transfer",
+                            "-of", "json", str(out)], capture_output=True, text=True)
+    tags = json.loads(probe.stdout)["streams"][0]
+    assert tags == {"color_range": "pc" if pix_fmt == "yuvj420p" else "tv",
+                    "color_space": "bt709", "color_primaries": "bt709",
+                    "color_transfer": "bt709"}
+    _, a = _frames(src)
+    _, b = _frames(out)
+    assert abs(np.percentile(a[3], 99) - np.percentile(b[3], 99)) <= 3

@@ -4,7 +4,7 @@ import pytest
 
 from unjello.config import CorrectionConfig
 from unjello.errors import InputError, OutputError
-from unjello.io.video import probe
+from unjello.io.video import frame_planes, probe
 from unjello.pipeline import correct_video
 
 from ..clips import audio_packets, make_clip, video_pts
@@ -98,3 +98,34 @@ def test_colour_tags_kept(tmp_path, scene):
     b = probe(dst).color
     assert int(a["color_primaries"]) == 1 and int(a["colorspace"]) == 1
     assert {k: int(v) for k, v in a.items()} == {k: int(v) for k, v in b.items()}
+
+
+def _luma_levels(path):
+    """The first frame's luma 1st/50th/99th percentiles, as decoded (8-bit scale)."""
+    with av.open(str(path)) as c:
+        frame = next(c.decode(video=0))
+        y = frame_planes(frame)[0].astype(np.float64)
+        if "10" in frame.format.name:
+            y = y / 4
+        return np.percentile(y, [1, 50, 99]), frame.color_range
+
+
+@pytest.mark.parametrize("pix_fmt, codec, suffix", [
+    ("yuvj420p", "libx264", ".mp4"), ("yuv420p", "libx264", ".mp4"),
+    ("yuvj420p", "ffv1", ".mkv"), ("yuvj420p", "prores_ks", ".mov")])
+def test_the_output_has_the_inputs_levels(tmp_path, scene, pix_fmt, codec, suffix):
+    """Full-range video (GoPros, phones: yuvj420p) keeps its levels and its tag; ProRes,
+    which editors read as limited range, gets the same picture at limited levels."""
+    src, dst = tmp_path / f"in_{pix_fmt}.mp4", tmp_path / f"out{suffix}"
+    make_clip(src, scene, n=4, audio=False, pix_fmt=pix_fmt)
+    (a, range_in) = _luma_levels(src)
+    correct_video(src, dst, CorrectionConfig(readout=1.0).with_options(codec=codec))
+    (b, range_out) = _luma_levels(dst)
+    full = pix_fmt == "yuvj420p"
+    assert (a[0] < 8) == full  # the input's black is at 0 (full) or 16 (limited)
+    if full and codec == "prores_ks":
+        assert range_out == 1 and b[0] == pytest.approx(16, abs=2)
+        assert b[2] == pytest.approx(16 + a[2] * 219 / 255, abs=3)
+        return
+    assert range_out == range_in
+    assert np.abs(b - a).max() <= 3  # the same levels (the warp moves a little content)

@@ -14,7 +14,9 @@ into place only when complete; on an error or Ctrl-C the partial output is remov
 from __future__ import annotations
 
 import os
+import queue
 import shutil
+import threading
 import uuid
 from pathlib import Path
 
@@ -23,10 +25,10 @@ import numpy as np
 from ..errors import OutputError, cannot_write
 from .frames import rgb8, write_image
 from .source import FrameSource, Picture
-from .video import VIDEO_SUFFIXES, EncodeOptions, ThreadedWriter, VideoWriter, is_pipe
+from .video import VIDEO_SUFFIXES, EncodeOptions, VideoWriter, is_pipe
 
 __all__ = ["temp_path", "replace", "remove", "check_new", "check_paths", "PictureSink",
-           "FrameSink", "make_folder"]
+           "FrameSink", "make_folder", "ThreadedWriter"]
 
 
 def make_folder(path: Path) -> None:
@@ -145,7 +147,7 @@ class PictureSink:
     def copy_audio(self, packet: object) -> None:
         """Copy one audio packet of the source unchanged."""
         if self._video is not None:
-            self._video.copy_audio(packet)  # type: ignore[arg-type]
+            self._video.copy_audio(packet)
 
     def close(self) -> None:
         """Finish and move the output into place."""
@@ -234,3 +236,75 @@ class FrameSink:
             self.close()
         else:
             self.abort()
+
+
+class ThreadedWriter:
+    """Run a :class:`VideoWriter` in a background thread, so encoding overlaps the work.
+
+    Video frames and audio packets go through one bounded queue, in order, so the
+    container is only touched by the writer thread. An encoder error is raised again by
+    the next call, or by :meth:`close`.
+
+    Parameters
+    ----------
+    writer : VideoWriter
+        The writer to drive.
+    depth : int
+        Frames queued at most (bounds memory).
+    """
+
+    def __init__(self, writer: VideoWriter, depth: int = 4) -> None:
+        self._w = writer
+        self._queued = 0
+        self._q: queue.Queue = queue.Queue(maxsize=depth)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="unjello-encoder", daemon=True)
+        self._thread.start()
+
+    @property
+    def frames_written(self) -> int:
+        """Frames handed to the writer so far."""
+        return self._queued
+
+    def _run(self) -> None:
+        while True:
+            item = self._q.get()
+            if item is None:
+                return
+            if self._error is not None:
+                continue
+            try:
+                if item[0] == "v":
+                    self._w.write(item[1], item[2])
+                else:
+                    self._w.copy_audio(item[1])
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
+                self._error = exc
+
+    def _check(self) -> None:
+        if self._error is not None:
+            raise self._error
+
+    def write(self, planes: list[np.ndarray], pts: int | None) -> None:
+        """Queue a frame (see :meth:`VideoWriter.write`)."""
+        self._check()
+        self._queued += 1
+        self._q.put(("v", planes, pts))
+
+    def copy_audio(self, packet: object) -> None:
+        """Queue an audio packet (see :meth:`VideoWriter.copy_audio`)."""
+        self._check()
+        self._q.put(("a", packet))
+
+    def close(self) -> None:
+        """Drain the queue, flush the encoder and close the file."""
+        self._q.put(None)
+        self._thread.join()
+        self._check()
+        self._w.close()
+
+    def abort(self) -> None:
+        """Stop the thread and close without flushing."""
+        self._q.put(None)
+        self._thread.join(timeout=10)
+        self._w.abort()

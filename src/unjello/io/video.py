@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import InputError, OutputError, SettingsError, cannot_write
 from .codecs import encoder_options, keeps_full_range, output_format
 
-__all__ = ["VideoInfo", "VideoReader", "VideoWriter", "ThreadedWriter", "probe",
+__all__ = ["VideoInfo", "VideoReader", "VideoWriter", "probe",
            "EncodeOptions", "variable_rate", "VIDEO_SUFFIXES", "metadata_tags", "PIPE",
            "is_pipe", "PIPE_FORMATS"]
 
@@ -437,6 +437,8 @@ class VideoWriter:
             assert isinstance(vs, av.video.stream.VideoStream)
         except (av.FFmpegError, ValueError, AssertionError) as exc:
             self._c.close()
+            if not is_pipe(path):
+                Path(path).unlink(missing_ok=True)
             raise OutputError(f"unknown or unavailable codec {options.codec!r} ({exc})") from None
         self._out_fmt = output_format(options.codec, options.profile, pix_fmt)
         self._codec = options.codec
@@ -528,78 +530,3 @@ class VideoWriter:
             self._c.close()
         except av.FFmpegError:
             pass
-
-
-class ThreadedWriter:
-    """Run a :class:`VideoWriter` in a background thread, so encoding overlaps the work.
-
-    Video frames and audio packets go through one bounded queue, in order, so the
-    container is only touched by the writer thread. An encoder error is raised again by
-    the next call, or by :meth:`close`.
-
-    Parameters
-    ----------
-    writer : VideoWriter
-        The writer to drive.
-    depth : int
-        Frames queued at most (bounds memory).
-    """
-
-    def __init__(self, writer: VideoWriter, depth: int = 4) -> None:
-        import queue
-        import threading
-
-        self._w = writer
-        self._queued = 0
-        self._q: queue.Queue = queue.Queue(maxsize=depth)
-        self._error: BaseException | None = None
-        self._thread = threading.Thread(target=self._run, name="unjello-encoder", daemon=True)
-        self._thread.start()
-
-    @property
-    def frames_written(self) -> int:
-        """Frames handed to the writer so far."""
-        return self._queued
-
-    def _run(self) -> None:
-        while True:
-            item = self._q.get()
-            if item is None:
-                return
-            if self._error is not None:
-                continue
-            try:
-                if item[0] == "v":
-                    self._w.write(item[1], item[2])
-                else:
-                    self._w.copy_audio(item[1])
-            except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
-                self._error = exc
-
-    def _check(self) -> None:
-        if self._error is not None:
-            raise self._error
-
-    def write(self, planes: list[np.ndarray], pts: int | None) -> None:
-        """Queue a frame (see :meth:`VideoWriter.write`)."""
-        self._check()
-        self._queued += 1
-        self._q.put(("v", planes, pts))
-
-    def copy_audio(self, packet: av.Packet) -> None:
-        """Queue an audio packet (see :meth:`VideoWriter.copy_audio`)."""
-        self._check()
-        self._q.put(("a", packet))
-
-    def close(self) -> None:
-        """Drain the queue, flush the encoder and close the file."""
-        self._q.put(None)
-        self._thread.join()
-        self._check()
-        self._w.close()
-
-    def abort(self) -> None:
-        """Stop the thread and close without flushing."""
-        self._q.put(None)
-        self._thread.join(timeout=10)
-        self._w.abort()

@@ -194,21 +194,36 @@ class PreviewClip:
             config, resolved, *_ = resolve_clip(config, self.src, source)
         self.base = config
         self._dir = tempfile.TemporaryDirectory(prefix="unjello-preview-")
-        self.count = 0
+        # The part asked for (start=, duration=), and up to _AROUND frames either side of
+        # it for the motion's windows; the page numbers the part's frames from 0.
+        span = config.span
+        begin = round(span.start.frames(resolved.fps)) if span.start is not None else 0
+        want = min(max_frames, round(span.duration.frames(resolved.fps))
+                   if span.duration is not None else max_frames)
+        self._pre = min(begin, _AROUND)
+        held = 0
         shape: tuple[int, ...] = ()
         first: list[np.ndarray] = []  # for the readout estimate, read once
-        for img in read_frames(self.src):
-            if self.count >= max_frames:
+        for i, img in enumerate(read_frames(self.src)):
+            if i < begin - self._pre:
+                continue
+            if held >= self._pre + want + (_AROUND if not span.whole else 0):
                 break
-            write_image(Path(self._dir.name) / f"{self.count:06d}.png", img)
+            write_image(Path(self._dir.name) / f"{held:06d}.png", img)
             shape = img.shape
             if len(first) < _ESTIMATE_FRAMES:
                 first.append(img)
-            self.count += 1
+            held += 1
+        self._held = held
+        self.count = max(0, min(held - self._pre, want))
+        if held <= self._pre and begin:
+            self._dir.cleanup()
+            raise InputError(f"{self.src}: --start {span.start} is past the clip's end")
         if self.count < 2:
             self._dir.cleanup()
             raise InputError(f"{self.src}: the preview needs at least two frames")
-        self.truncated = info.frames > self.count if info.frames else False
+        self.truncated = (info.frames > begin + self.count if info.frames and span.duration
+                          is None else False)
         self.height, self.width = int(shape[0]), int(shape[1])
         self.is_video = info.is_video
         self.fps = resolved.fps
@@ -238,10 +253,14 @@ class PreviewClip:
         """Return frame ``n`` as read (RGB, or grey for a grey folder)."""
         if not 0 <= n < self.count:
             raise InputError(f"no frame {n}: the clip has frames 0 to {self.count - 1}")
-        img = self._frames.get(n)
+        return self._stored(n + self._pre)
+
+    def _stored(self, k: int) -> np.ndarray:
+        """Return the ``k``-th frame held (those around the part asked for included)."""
+        img = self._frames.get(k)
         if img is None:
-            img = read_image(Path(self._dir.name) / f"{n:06d}.png")
-            self._frames[n] = img
+            img = read_image(Path(self._dir.name) / f"{k:06d}.png")
+            self._frames[k] = img
         return img
 
     def corrected(self, n: int, settings: PreviewSettings) -> tuple[np.ndarray, float]:
@@ -252,18 +271,19 @@ class PreviewClip:
         config = settings.config(self.base)
         timing = settings.timing()
         # Near the clip's ends the methods' windows shift inwards: keep the window's length.
-        lo = max(0, min(n - _AROUND, self.count - 1 - 2 * _AROUND))
-        hi = min(self.count - 1, max(n + _AROUND, 2 * _AROUND))
+        m = n + self._pre  # among the frames held
+        lo = max(0, min(m - _AROUND, self._held - 1 - 2 * _AROUND))
+        hi = min(self._held - 1, max(m + _AROUND, 2 * _AROUND))
         with self._lock:
             corrector = Corrector(timing, config, fps=self.fps, flows=self._flows,
-                                  only={n - lo})
+                                  only={m - lo})
             out: np.ndarray | None = None
             for k in range(lo, hi + 1):
-                done = corrector.push([self.frame(k)], float(k))
+                done = corrector.push([self._stored(k)], float(k))
                 if k == hi:
                     done += corrector.flush()
                 for planes, fm in done:
-                    if fm.index == n - lo:
+                    if fm.index == m - lo:
                         out = planes[0]
                         self._motions.setdefault(settings, {})[n] = _frame_of(fm, n)
         assert out is not None
@@ -292,7 +312,12 @@ class PreviewClip:
         """Return the ``unjello correct`` line for ``settings``."""
         out = (self.src.with_name(self.src.stem + "_unjello" + self.src.suffix)
                if self.is_video else self.src.with_name(self.src.name + "_unjello"))
-        return settings.command(str(self.src), str(out))
+        line = settings.command(str(self.src), str(out))
+        span = self.base.span  # the part held: the command writes the same frames
+        for flag, value in (("--start", span.start), ("--duration", span.duration)):
+            if value is not None:
+                line += f" {flag} {value}"
+        return line
 
     def preset(self, settings: PreviewSettings) -> str:
         """Return a JSON preset file of ``settings`` (``unjello correct --preset FILE``)."""
