@@ -11,6 +11,7 @@ import errno
 import json
 import os
 import re
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -503,17 +504,50 @@ def _reader_gone() -> None:
     sys.exit(1)
 
 
+class _Stopped(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised as Ctrl-C's KeyboardInterrupt is (the same cleanup)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum: int, frame: object) -> None:
+    raise _Stopped(signum)
+
+
+def _catch_stop_signals() -> None:
+    """Let ``kill`` (SIGTERM) and a closed terminal (SIGHUP) clean up as Ctrl-C does.
+
+    A signal ignored on entry (``nohup``) stays ignored; so does SIGINT in a job that
+    its shell started in the background (POSIX shells start those with SIGINT ignored).
+    """
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) != signal.SIG_IGN:
+            try:
+                signal.signal(sig, _stop)
+            except ValueError:  # not the main thread: the caller's own business
+                return
+
+
+def _interrupted(exc: BaseException | None) -> None:
+    """Say that the run was stopped, and exit 128 + the signal (130 for Ctrl-C)."""
+    signum = exc.signum if isinstance(exc, _Stopped) else signal.SIGINT
+    how = "interrupted" if signum == signal.SIGINT else f"stopped ({signal.Signals(signum).name})"
+    click.echo(f"{how}; partial output removed", err=True)
+    sys.exit(128 + int(signum))
+
+
 def main(argv: list[str] | None = None) -> Any:
-    """Entry point: run the CLI; Ctrl-C is one line and exit code 130."""
+    """Entry point: run the CLI; Ctrl-C is one line and exit code 130 (SIGTERM: 143)."""
+    _catch_stop_signals()
     try:
         code = cli.main(args=argv, prog_name="unjello", standalone_mode=False)
-    except click.exceptions.Abort:
-        click.echo("interrupted", err=True)
-        sys.exit(130)
-    except KeyboardInterrupt:
-        click.echo("interrupted; partial output removed", err=True)
-        sys.exit(130)
-
+    except click.exceptions.Abort as exc:  # Click's word for a KeyboardInterrupt
+        _interrupted(exc.__cause__)
+    except KeyboardInterrupt as exc:
+        _interrupted(exc)
     except click.exceptions.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)

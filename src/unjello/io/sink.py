@@ -258,6 +258,7 @@ class ThreadedWriter:
         self._queued = 0
         self._q: queue.Queue = queue.Queue(maxsize=depth)
         self._error: BaseException | None = None
+        self._aborted = False
         self._thread = threading.Thread(target=self._run, name="unjello-encoder", daemon=True)
         self._thread.start()
 
@@ -271,7 +272,7 @@ class ThreadedWriter:
             item = self._q.get()
             if item is None:
                 return
-            if self._error is not None:
+            if self._error is not None or self._aborted:
                 continue
             try:
                 if item[0] == "v":
@@ -304,7 +305,20 @@ class ThreadedWriter:
         self._w.close()
 
     def abort(self) -> None:
-        """Stop the thread and close without flushing."""
-        self._q.put(None)
-        self._thread.join(timeout=10)
-        self._w.abort()
+        """Stop the thread and close without flushing, without waiting on a stuck output.
+
+        What is queued is dropped (the output is being thrown away), so the stop signal
+        never waits for room; a thread still stuck after a few seconds (writing into a pipe
+        whose reader stopped reading) is left to end with the process, its file unclosed
+        rather than closed under it.
+        """
+        self._aborted = True
+        while True:
+            try:
+                self._q.get_nowait()
+            except queue.Empty:
+                break
+        self._q.put_nowait(None)
+        self._thread.join(timeout=5)
+        if not self._thread.is_alive():
+            self._w.abort()
