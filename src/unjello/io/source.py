@@ -181,7 +181,7 @@ class FrameSource:
         self.past_end = False
         if self.reader is None:
             for i, f in enumerate(self._files):
-                keep = True
+                keep: bool | None = True
                 if window is not None:
                     keep = window.keep(i / rate)
                     if keep is None:
@@ -192,7 +192,7 @@ class FrameSource:
                     raise InputError(
                         f"{f.name}: {_describe(img)} differs from the first frame's "
                         f"{_describe(self._first)} (a folder must hold one clip's frames)")
-                yield Picture([img], float(i), name=f.name, keep=keep)
+                yield Picture([img], float(i), name=f.name, keep=bool(keep))
             if window is not None:
                 window.check(self.path)
             return
@@ -219,14 +219,14 @@ class FrameSource:
             if window is None:
                 yield Picture(item, start, pts=pts)  # type: ignore[arg-type]
                 continue
-            keep = window.keep(start / rate)
-            if keep is None:
+            inside = window.keep(start / rate)
+            if inside is None:
                 continue
             self.past_end = window.over
             shifted = (pts - first - round(window.offset / tb)  # type: ignore[operator]
-                       if keep and known else pts)
-            yield Picture(item, start, pts=shifted, keep=keep)  # type: ignore[arg-type]
-            if keep:
+                       if inside and known else pts)
+            yield Picture(item, start, pts=shifted, keep=inside)  # type: ignore[arg-type]
+            if inside:
                 yield from window.audio(None)  # what waited for the first picture's time
         if n == 0:
             raise InputError(f"{self.path}: the video has no frames")
