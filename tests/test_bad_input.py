@@ -309,3 +309,11 @@ def test_frames_too_small_give_the_minimum(tmp_path):
         write_image(src / f"{i}.png", np.zeros((1, 1, 3), np.uint8))
     line = clean_failure(run("correct", src, "-o", tmp_path / "out"))
     assert "1x1 are too small (unjello needs at least 16x16)" in line
+
+
+def test_a_side_output_the_folder_refuses_is_one_line(refusing_folder, tmp_path, good):
+    line = clean_failure(run("correct", good, "-o", tmp_path / "o.mp4", "--motion-out",
+                             refusing_folder / "m.json", "-q"))
+    assert line == (f"unjello: error: cannot write {refusing_folder / 'm.json'}: the folder "
+                    f"{refusing_folder} is not writable")
+    assert not (tmp_path / "o.mp4").exists()

@@ -139,9 +139,12 @@ class _Group(click.Group):
             click.echo(f"unjello: error: {_flagify(str(exc))}", err=True)
             ctx.exit(2)
         except OSError as exc:  # (Click would end a broken pipe silently)
-            if exc.errno != errno.EPIPE:
-                raise
-            _reader_gone()
+            if exc.errno == errno.EPIPE:
+                _reader_gone()
+            # A file the system refused that no check foresaw: one line, not a traceback.
+            where = f"{exc.filename}: " if exc.filename else ""
+            click.echo(f"unjello: error: {where}{exc.strerror or exc}", err=True)
+            ctx.exit(2)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

@@ -54,7 +54,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, cannot_write
 from .timing import SensorTiming
 
 __all__ = ["FrameMotion", "Reframe", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
@@ -402,7 +402,10 @@ class TrajectoryWriter:
         self._tmp = self.path.with_name(f".{self.path.name}.tmp{os.getpid()}"
                                         + (".gz" if self.path.name.endswith(".gz") else ""))
         self._header = header
-        self._f = _open_text(self._tmp, "w")
+        try:
+            self._f = _open_text(self._tmp, "w")
+        except OSError as exc:
+            raise cannot_write(self.path, exc) from None
         self._n = 0
 
     def _open(self) -> None:
