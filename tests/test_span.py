@@ -118,3 +118,19 @@ def test_the_command_line_and_the_preview_take_a_part(clip, tmp_path):
         image, _ = preview.corrected(5, preview.initial)
         assert image.shape == frame40.shape
         assert "--start 40f --duration 6f" in preview.command(preview.initial)
+
+
+def test_a_part_deep_in_a_file_is_entered_by_seeking(tmp_path, scene):
+    """Past the look-behind (a second) and a keyframe: the reader seeks, and the part's
+    frames are still the whole run's, timed from zero."""
+    src = tmp_path / "long.mp4"
+    make_clip(src, scene, n=100, size=(160, 120), audio=False, readout=0.9, speed=3,
+              keyint=20)
+    config = CorrectionConfig(readout=0.9).with_options(codec="ffv1")
+    whole, part = tmp_path / "whole.mkv", tmp_path / "part.mkv"
+    correct_video(src, whole, config)
+    correct_video(src, part, config.with_options(start="2.5", duration="10f"))
+    got, ref = _frames(part), _frames(whole)
+    assert len(got) == 10 and got[0][0] == 0.0
+    for (_, a), (_, b) in zip(got, ref[75:85], strict=True):
+        assert np.abs(a - b).mean() < 0.5

@@ -198,7 +198,7 @@ class FrameSource:
             return
         tb = float(self.info.time_base or 0)
         first: int | None = None
-        if window is not None and not self.pipe and window.seek_to > 1.0:
+        if window is not None and not self.pipe and tb > 0 and window.seek_to > 1.0:
             first = self.reader.start_pts()
             self.reader.seek(first + int(window.seek_to / tb))
         n = 0
@@ -228,10 +228,10 @@ class FrameSource:
             yield Picture(item, start, pts=shifted, keep=inside)  # type: ignore[arg-type]
             if inside:
                 yield from window.audio(None)  # what waited for the first picture's time
+        if window is not None and (n or first is not None):
+            window.check(self.path)
         if n == 0:
             raise InputError(f"{self.path}: the video has no frames")
-        if window is not None:
-            window.check(self.path)
 
     def pictures(self, fps: float | None = None, limit: int | None = None
                  ) -> Iterator[Picture]:
@@ -321,4 +321,4 @@ class _Window:
     def check(self, path: Path) -> None:
         """Refuse a part that starts after the clip's end."""
         if self.offset is None:
-            raise InputError(f"{path}: --start {self.start:g} s is past the clip's end")
+            raise InputError(f"{path}: start={self.start:g} s is past the clip's end")

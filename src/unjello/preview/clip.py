@@ -218,7 +218,7 @@ class PreviewClip:
         self.count = max(0, min(held - self._pre, want))
         if held <= self._pre and begin:
             self._dir.cleanup()
-            raise InputError(f"{self.src}: --start {span.start} is past the clip's end")
+            raise InputError(f"{self.src}: start={span.start} is past the clip's end")
         if self.count < 2:
             self._dir.cleanup()
             raise InputError(f"{self.src}: the preview needs at least two frames")
