@@ -29,6 +29,7 @@ import argparse
 import cProfile
 import importlib
 import io
+import os
 import pstats
 import subprocess
 import sys
@@ -106,16 +107,32 @@ def cut(src: Path, dst: Path, frames: int) -> None:
 
 def timed(cmd: list[str]) -> tuple[float, float]:
     """Run a command; return (seconds, peak RSS of the child in MB)."""
+    seconds, rss, _ = timed_cpu(cmd)
+    return seconds, rss
+
+
+def timed_cpu(cmd: list[str]) -> tuple[float, float, float]:
+    """Run a command; return wall seconds, peak RSS (MB), CPU seconds (all its threads)."""
     t0 = time.perf_counter()
     res = subprocess.run(["/usr/bin/env", "python3", "-c",
                           "import resource,subprocess,sys;"
                           "r=subprocess.run(sys.argv[1:]);"
-                          "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss);"
+                          "u=resource.getrusage(resource.RUSAGE_CHILDREN);"
+                          "print(u.ru_maxrss, u.ru_utime + u.ru_stime);"
                           "sys.exit(r.returncode)", *cmd], capture_output=True, text=True)
     seconds = time.perf_counter() - t0
     if res.returncode != 0:
         raise SystemExit(f"failed: {' '.join(cmd)}\n{res.stderr}")
-    return seconds, int(res.stdout.strip().splitlines()[-1]) / 1024.0
+    rss, cpu = res.stdout.strip().splitlines()[-1].split()
+    return seconds, int(rss) / 1024.0, float(cpu)
+
+
+def _self_cpu() -> float:
+    """CPU seconds (user + sys, every thread) this process has used so far."""
+    import resource
+
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
 
 
 FAST = CorrectionConfig(dense=DenseConfig(per_pixel=False, flow_preset="ultrafast",
@@ -302,17 +319,26 @@ def main() -> None:
         # over minutes, which one round alone would fold into the ratio.
         rounds = []
         for k in range(args.rounds):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), _self_cpu()
             transcode(clip, d / "t0.mp4")
-            t0 = time.perf_counter() - t
-            t1, rss1 = timed([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"), "-q",
-                              "-y"])
-            tf, _ = timed([*unjello, "correct", str(clip), "-o", str(d / "tf.mp4"), "-q", "-y",
-                           "--preset", "fast"])
-            rounds.append((t0, t1, tf, rss1))
+            t0, c0 = time.perf_counter() - t, _self_cpu() - c
+            t1, rss1, c1 = timed_cpu([*unjello, "correct", str(clip), "-o", str(d / "t1.mp4"),
+                                      "-q", "-y"])
+            tf, _, cf = timed_cpu([*unjello, "correct", str(clip), "-o", str(d / "tf.mp4"),
+                                   "-q", "-y", "--preset", "fast"])
+            rounds.append((t0, t1, tf, rss1, c0, c1, cf))
             print(f"round {k + 1}: T0 {t0:.1f} s, T1 {t1:.1f} s ({t1 / t0:.2f}), "
                   f"T1 fast {tf:.1f} s ({tf / t0:.2f})", flush=True)
-        t0, t1, tf, rss1 = sorted(rounds, key=lambda r: r[1] / r[0])[len(rounds) // 2]
+        t0, t1, tf, rss1, c0, c1, cf = sorted(rounds, key=lambda r: r[1] / r[0])[
+            len(rounds) // 2]
+        per = 1000.0 / args.frames  # seconds of the clip -> ms a frame
+        print("CPU (user + sys, all threads) of that round, whole process, and the cores it "
+              "kept busy (CPU / wall):")
+        for name, wall, cpu in (("T0 plain transcode", t0, c0), ("T1 default", t1, c1),
+                                ("T1 --preset fast", tf, cf)):
+            extra = "" if name.startswith("T0") else f", {per * (cpu - c0):+.0f} core-ms a frame"
+            print(f"  {name:20s} {per * cpu:6.0f} core-ms a frame{extra}; "
+                  f"{cpu / wall:.2f} of {os.cpu_count()} cores busy")
         print(f"median round of {len(rounds)} (by T1/T0):")
         print(f"T0 plain transcode (libx264 CRF 18 medium, audio copied): {t0:.1f} s "
               f"({args.frames / t0:.1f} fps)")
