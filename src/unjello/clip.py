@@ -21,7 +21,6 @@ from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
 from .gyrolog import GyroLog
-from .io.frames import list_frames
 from .io.sidecars import LensProfile, gyro_source, read_lens_profile, stated_readout
 from .io.source import FrameSource
 from .io.telemetry import camera_of
@@ -394,7 +393,7 @@ def describe(path: Path) -> dict[str, Any]:
     folder = Path(path).is_dir()
     with FrameSource(path) as source:
         config, resolved, *_ = resolve_clip(CorrectionConfig(undistort=True), path, source)
-        first = next(source.pictures(limit=1)).planes[0] if folder else None
+        first = next(source.pictures(limit=1)) if folder else None
     said = resolved.sources["readout"]
     stated = not said.startswith("default")
     ms = resolved.timing.readout / resolved.fps * 1e3
@@ -407,12 +406,12 @@ def describe(path: Path) -> dict[str, Any]:
               "readout_source": said if stated else None,
               "direction": resolved.timing.direction, "lens": lens}
     if first is not None:  # a folder of frames: no rate, codec, audio or tags of its own
-        files = list_frames(path)
-        channels = first.shape[2] if first.ndim == 3 else 1
-        return {"path": str(path), "folder": True, "width": first.shape[1],
-                "height": first.shape[0], "frames": len(files),
-                "format": files[0].suffix.lstrip(".").lower(), "channels": channels,
-                "bit_depth": int(first.dtype.itemsize * 8), "fps": None,
+        image = first.planes[0]
+        return {"path": str(path), "folder": True, "width": image.shape[1],
+                "height": image.shape[0], "frames": source.info.frames,
+                "format": Path(str(first.name)).suffix.lstrip(".").lower(),
+                "channels": image.shape[2] if image.ndim == 3 else 1,
+                "bit_depth": int(image.dtype.itemsize * 8), "fps": None,
                 "assumed_fps": resolved.fps, **common}
     info = probe(path)
     return {"path": str(path), "folder": False, "width": info.width, "height": info.height,

@@ -440,14 +440,14 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
     """
     held: deque[Picture] = deque()
     span = config.span
-    total = source.info.frames
+    total = source.info.frames  # for the progress bar (0: unknown)
     if not span.whole:
-        rest = max(0.0, total - (span.start.frames(resolved.fps) if span.start else 0.0))
-        total = round(min(span.duration.frames(resolved.fps), rest) if span.duration
-                      else rest) if total else 0
-    first: list[float] = []  # the first picture written's start: the output's time zero
+        part = span.length(resolved.fps, total or math.inf)
+        total = int(part) if math.isfinite(part) else 0
+    zero = 0.0  # the first picture written's start: the output's time zero
 
     def emit(items: list[tuple[list[np.ndarray], FrameMotion]]) -> None:
+        nonlocal zero
         if corrector.gyro is not None:  # before the motion JSON's header is written
             traj.method = corrector.method
         for planes, fm in items:
@@ -455,8 +455,9 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
             if not picture.keep:  # read around the part asked for: its motion only
                 continue
             if not span.whole:  # numbered and timed from the part's start
-                first[:1] = first[:1] or [fm.start]
-                fm = dataclasses.replace(fm, index=len(traj), start=fm.start - first[0])
+                if not traj.frames:
+                    zero = fm.start
+                fm = dataclasses.replace(fm, index=len(traj), start=fm.start - zero)
             sink.write(picture, planes)
             side.frame(picture.planes, planes, fm, resolved.timing, picture.pts)
             traj.frames.append(_light(fm))

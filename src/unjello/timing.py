@@ -384,3 +384,12 @@ class ClipSpan:
     def whole(self) -> bool:
         """Whether it is the whole clip."""
         return (self.start is None or self.start.value == 0) and self.duration is None
+
+    def first_frame(self, fps: float) -> int:
+        """Return the index of the part's first frame at ``fps``."""
+        return round(self.start.frames(fps)) if self.start is not None else 0
+
+    def length(self, fps: float, frames: float = float("inf")) -> float:
+        """Return how many frames the part holds of a clip of ``frames`` (inf: unknown)."""
+        rest = max(0.0, frames - self.first_frame(fps))
+        return min(round(self.duration.frames(fps)), rest) if self.duration is not None else rest

@@ -378,7 +378,7 @@ class Trajectory:
 
 def _open_text(path: Path, mode: str) -> io.TextIOBase:
     """Open a text file, through gzip where its name ends ``.gz``."""
-    if path.suffix.lower() == ".gz" or path.name.endswith(".gz"):
+    if path.name.lower().endswith(".gz"):
         return gzip.open(path, mode + "t", encoding="utf-8")  # type: ignore[return-value]
     return path.open(mode, encoding="utf-8")  # type: ignore[return-value]
 
@@ -400,7 +400,8 @@ class TrajectoryWriter:
     def __init__(self, path: str | os.PathLike, header: Trajectory) -> None:
         self.path = Path(path)
         self._tmp = self.path.with_name(f".{self.path.name}.tmp{os.getpid()}"
-                                        + (".gz" if self.path.name.endswith(".gz") else ""))
+                                        + (".gz" if self.path.name.lower().endswith(".gz")
+                                           else ""))
         self._header = header
         try:
             self._f = _open_text(self._tmp, "w")

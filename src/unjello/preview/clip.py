@@ -197,9 +197,8 @@ class PreviewClip:
         # The part asked for (start=, duration=), and up to _AROUND frames either side of
         # it for the motion's windows; the page numbers the part's frames from 0.
         span = config.span
-        begin = round(span.start.frames(resolved.fps)) if span.start is not None else 0
-        want = min(max_frames, round(span.duration.frames(resolved.fps))
-                   if span.duration is not None else max_frames)
+        begin = span.first_frame(resolved.fps)
+        want = int(min(max_frames, span.length(resolved.fps)))
         self._pre = min(begin, _AROUND)
         held = 0
         shape: tuple[int, ...] = ()
