@@ -36,7 +36,11 @@ def test_presets_are_library_objects(tmp_path):
     assert mine.origins["readout"] == "preset my.json"
     # A preset applied to other settings keeps what it does not name.
     assert CorrectionConfig.from_preset("drone", base=mine).method == "paper"
-    assert set(PRESETS) == {"paper-figures", "fast", "drone", "handheld"}
+    assert set(PRESETS) == {"paper-figures", "fast", "best", "drone", "handheld"}
+    # best: the flow as it was before issue 37 (DIS down to full resolution, no polish).
+    best = CorrectionConfig.from_preset("best").dense.flow
+    assert (best.finest_scale, best.refinement, best.polish) == (None, 1, 0)
+    assert CorrectionConfig().dense.flow.polish == 3
 
 
 @pytest.mark.parametrize("value, parsed", [

@@ -27,6 +27,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from .coarse_remap import remap_coarse
 from .lens import Lens
 from .neighbours import fill_from_neighbours, neighbour_sources
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
@@ -510,20 +511,25 @@ class PictureWarper:
                 if self.undistort is not None:  # a forward splat: a second resampling
                     res = apply_maps(res, self._lens(ph, pw, scale))
             else:
-                if (ph, pw) not in sized:  # U and V share their maps
-                    sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
-                        reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
-                                                out=self._buffer(ph, pw)),
-                                     motion.reframe, (h, w)))
-                    if self.undistort is not None:  # one resampling: the maps composed
-                        sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
-                                                       self._lens(ph, pw, scale))
-                res = apply_maps(tb, sized[(ph, pw)], fill=fill)
+                coarse = maps is not None and self.undistort is None
+                if coarse:  # straight from the coarse maps: no full-size maps written
+                    res = remap_coarse(tb, maps, fill=fill)
+                else:
+                    if (ph, pw) not in sized:  # U and V share their maps
+                        sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
+                            reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w),
+                                                    pw, out=self._buffer(ph, pw)),
+                                         motion.reframe, (h, w)))
+                        if self.undistort is not None:  # one resampling: the maps composed
+                            sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
+                                                           self._lens(ph, pw, scale))
+                    res = apply_maps(tb, sized[(ph, pw)], fill=fill)
                 if maps is not None and sources:
                     if (ph, pw) not in parts:
-                        parts[(ph, pw)] = neighbour_sources(
-                            sized[(ph, pw)], [flow for _, flow in sources],
-                            maps if self.undistort is None else None)
+                        flows = [flow for _, flow in sources]
+                        parts[(ph, pw)] = (neighbour_sources(maps, flows, size=(ph, pw))
+                                           if coarse else
+                                           neighbour_sources(sized[(ph, pw)], flows))
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
             out.append(from_top_bottom(res, d))

@@ -67,3 +67,24 @@ def test_small_motion_is_plain_dis():
     dis.setVariationalRefinementIterations(1)
     plain = dis.calc(a.astype(np.uint8), b.astype(np.uint8), None)
     assert np.array_equal(optical_flow(a, b, "medium", 0, None, 1), plain)
+
+
+def test_polished_flow_is_as_close_as_the_full_one():
+    # DIS down to half resolution, polished at full: within 0.05 px of the full-resolution
+    # flow's error on a sub-pixel shift of a textured scene (both well under 0.2 px).
+    scene = cv2.GaussianBlur(_textured((260, 380)), (0, 0), 1.0)
+    shift = np.float32([[1, 0, -2.3], [0, 1, 1.6]])  # a(s) = scene(s + (2.3, -1.6))
+    a = cv2.warpAffine(scene, shift, (380, 260), flags=cv2.INTER_CUBIC)[10:-10, 10:-10]
+    b = scene[10:-10, 10:-10]
+    inner = (slice(12, -12), slice(12, -12))
+    truth = np.array([2.3, -1.6], np.float32)
+
+    def error(flow):
+        return float(np.abs(flow[inner] - truth).mean())
+
+    full = error(optical_flow(a, b, "medium", 0, 0, 1))
+    polished = error(optical_flow(a, b, "medium", 0, 1, 3, polish=3))
+    coarse = error(optical_flow(a, b, "medium", 0, 1, 3))
+    assert polished < 0.2 and full < 0.2
+    assert polished < full + 0.05
+    assert polished < coarse

@@ -1,0 +1,149 @@
+"""The backward warp straight from coarse maps: no full-size map is ever written.
+
+The dense method's backward maps live on its working grid (480 px wide by default); a
+1080p luma plane needs them 4x finer. Upsampling them whole
+(:func:`unjello.warp.resize_maps`) and then :func:`cv2.remap` writes and reads 16 MB of
+maps a 1080p plane (64 MB at 4K), and in a real run, with the decoder and the encoder
+using the caches too, that memory traffic cost as much as the interpolation
+(``docs/measurements.md``). :func:`remap_coarse` upsamples the maps along x once per
+coarse row, then band by band (32 K samples, held in the core's cache) along y with a
+compiled kernel (Numba) and remaps each band with :func:`cv2.remap` into the output: the
+same maps, the same sampling, a fraction of the memory. ``tests/test_coarse_remap.py``
+compares it with ``apply_maps(resize_maps(...))``. :func:`coarse_at` gives the same
+upsampled maps at chosen pixels.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numba
+import numpy as np
+
+__all__ = ["remap_coarse", "coarse_at"]
+
+#: Map samples per band (both maps in float32: 256 KB, held in the core's cache).
+_BAND = 32768
+
+
+@numba.njit(cache=True, nogil=True)
+def _axis(n_out: int, n_coarse: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per output pixel along one axis: lower coarse index, the upper one's weight, beyond.
+
+    Pixel centres line up (``u = (X + 0.5) n_coarse / n_out - 0.5``), as ``cv2.resize``;
+    beyond the outermost coarse centres the position is held and ``beyond`` (in coarse
+    samples) says how far past it the pixel lies.
+    """
+    scale = n_coarse / n_out
+    lo = np.empty(n_out, np.int64)
+    frac = np.empty(n_out, np.float32)
+    beyond = np.empty(n_out, np.float32)
+    for i in range(n_out):
+        u = (i + 0.5) * scale - 0.5
+        uc = min(max(u, 0.0), n_coarse - 1.0)
+        k = min(int(np.floor(uc)), max(n_coarse - 2, 0))
+        lo[i] = k
+        frac[i] = uc - k if n_coarse > 1 else 0.0
+        beyond[i] = u - uc
+    return lo, frac, beyond
+
+
+@numba.njit(cache=True, nogil=True)
+def _band_maps(wide_x: np.ndarray, wide_y: np.ndarray, lo: int, rows: tuple,
+               cols: tuple, out_x: np.ndarray, out_y: np.ndarray) -> None:
+    """Rows ``lo ..`` of the upsampled maps into ``out_x, out_y`` (one band).
+
+    ``wide_x, wide_y`` are the coarse maps already upsampled along x (gh, w), in grid
+    units; ``rows`` and ``cols`` the two axes' :func:`_axis` with the scales.
+    """
+    row_lo, row_f, row_b, sy = rows
+    col_off, sx = cols  # per column: (beyond + 1/2) * sx - 1/2
+    gh, w = wide_x.shape
+    half = np.float32(0.5)
+    for i in range(out_x.shape[0]):
+        y = lo + i
+        r0 = row_lo[y]
+        r1 = min(r0 + 1, gh - 1)
+        fv = row_f[y]
+        off_y = (row_b[y] + half) * sy - half
+        for x in range(w):
+            out_x[i, x] = (wide_x[r0, x] + fv * (wide_x[r1, x] - wide_x[r0, x])) * sx \
+                + col_off[x]
+            out_y[i, x] = (wide_y[r0, x] + fv * (wide_y[r1, x] - wide_y[r0, x])) * sy + off_y
+
+
+def remap_coarse(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
+                 fill: str = "nearest") -> np.ndarray:
+    """Backward warp of ``image`` by coarse maps, upsampled on the fly to its size.
+
+    Equal to ``apply_maps(image, resize_maps(*maps, h, w), fill)`` of :mod:`unjello.warp`
+    up to the last bit of a map value (at most one grey level, rarely), without the
+    full-size maps.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c]), uint8, uint16 or float32
+        A plane (top-bottom).
+    maps : tuple of ndarray of shape (gh, gw), float32
+        Source x and y of every grid sample, in pixels of the grid (as
+        :func:`~unjello.warp.field_maps` gives them).
+    fill : {'nearest', 'black'}
+        What to put where the source lies outside the plane.
+
+    Returns
+    -------
+    ndarray like ``image``
+
+    Examples
+    --------
+    A grid of 2 x 3 samples that reads every pixel one grid step (4 px) to its right:
+
+    >>> img = np.tile(np.arange(12, dtype=np.uint8), (8, 1))
+    >>> gx = np.tile(np.arange(3, dtype=np.float32) + 1, (2, 1))
+    >>> gy = np.tile(np.arange(2, dtype=np.float32)[:, None], (1, 3))
+    >>> remap_coarse(img, (gx, gy))[0].tolist()
+    [4, 5, 6, 7, 8, 9, 10, 11, 11, 11, 11, 11]
+    """
+    img = np.ascontiguousarray(image)
+    if img.dtype not in (np.uint8, np.uint16, np.float32):
+        img = img.astype(np.float32)
+    h, w = img.shape[:2]
+    gh, gw = maps[0].shape
+    sx, sy = np.float32(w / gw), np.float32(h / gh)
+    # Along x first, once per coarse row (pixel centres aligned; the edges held).
+    wide_x, wide_y = (cv2.resize(np.asarray(m, np.float32), (w, gh),
+                                 interpolation=cv2.INTER_LINEAR) for m in maps)
+    col_b = _axis(w, gw)[2]
+    cols = ((col_b + np.float32(0.5)) * sx - np.float32(0.5), sx)
+    row_lo, row_f, row_b = _axis(h, gh)
+    axis_rows = (row_lo, row_f, row_b, sy)
+    out = np.empty_like(img)
+    rows = max(1, _BAND // w)
+    bx, by = np.empty((rows, w), np.float32), np.empty((rows, w), np.float32)
+    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
+    for lo in range(0, h, rows):
+        n = min(rows, h - lo)
+        _band_maps(wide_x, wide_y, lo, axis_rows, cols, bx[:n], by[:n])
+        cv2.remap(img, bx[:n], by[:n], cv2.INTER_LINEAR, dst=out[lo:lo + n],
+                  borderMode=border, borderValue=0)
+    return out
+
+
+def coarse_at(maps: tuple[np.ndarray, np.ndarray], size: tuple[int, int], ys: np.ndarray,
+              xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the coarse maps upsampled to ``size`` (h, w), at the pixels ``(ys, xs)`` only.
+
+    The positions :func:`remap_coarse` samples there (:func:`~unjello.warp.resize_maps`
+    at those pixels): for a few pixels, such as those whose source lies outside the frame.
+    """
+    h, w = size
+    gh, gw = maps[0].shape
+    c0, fu, bx = (a[xs] for a in _axis(w, gw))
+    r0, fv, by = (a[ys] for a in _axis(h, gh))
+    c1, r1 = np.minimum(c0 + 1, gw - 1), np.minimum(r0 + 1, gh - 1)
+    out = []
+    for m, s, beyond in ((maps[0], np.float32(w / gw), bx), (maps[1], np.float32(h / gh), by)):
+        left = m[r0, c0] + fv * (m[r1, c0] - m[r0, c0])  # rows first, as the kernel
+        right = m[r0, c1] + fv * (m[r1, c1] - m[r0, c1])
+        out.append((left + fu * (right - left) + np.float32(0.5)) * s - np.float32(0.5)
+                   + beyond * s)
+    return out[0], out[1]
