@@ -12,7 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .coarse_remap import coarse_at
+from .band_remap import coarse_at
 
 __all__ = ["neighbour_sources", "fill_from_neighbours"]
 
@@ -44,7 +44,7 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
     ----------
     maps : tuple of ndarray
         The plane's backward maps (plane pixels), or with ``size`` the coarse maps the
-        plane's are upsampled from (:func:`~unjello.coarse_remap.remap_coarse`).
+        plane's are upsampled from (:func:`~unjello.band_remap.remap_coarse`).
     flows : list of ndarray
         Flow from this frame to each neighbour, (hf, wf, 2) in pixels of that (hf, wf)
         grid; a pixel goes to the first neighbour that saw it.

@@ -36,6 +36,7 @@ still first frame is assumed: every frame is corrected to its own reference time
 
 from __future__ import annotations
 
+import dataclasses
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
@@ -50,6 +51,7 @@ from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
 from .dense_config import DenseConfig
 from .field import advected_velocity, fill_unreliable, smooth_field, snap_to_global
 from .flow import (
+    FlowSettings,
     flow_pair,
     half_row_flows,
     landing,
@@ -100,6 +102,7 @@ class _Frame:
     fwd: np.ndarray | None = None  # flow to the next frame
     bwd_ok: np.ndarray | None = None
     fwd_ok: np.ndarray | None = None
+    settings: FlowSettings | None = None  # of the flow to the previous frame
 
     @property
     def contrast(self) -> float:
@@ -153,6 +156,8 @@ class DenseMethod:
         self._spins: list[tuple[np.ndarray, float, float]] = []
         # The last frame's objects kept whole (bool, working grid), or None.
         self._kept: np.ndarray | None = None
+        # Once an object spun or was kept whole, the flows that follow are full detail.
+        self._fine = False
 
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
         """Add the next frame (grey, 0-255, top-bottom) starting at time ``start``."""
@@ -191,12 +196,27 @@ class DenseMethod:
             args = (cur.image, prev.image, self.config.flow_preset, 0, self.config.finest_scale)
             job: Callable[..., tuple] = _row_flow
         else:
-            key = (prev.start, cur.start, cur.image.shape, self.timing.direction,
-                   self.config.flow)
+            cur.settings = self._flow_settings
+            key = (prev.start, cur.start, cur.image.shape, self.timing.direction, cur.settings)
             if self._flows is not None and key in self._flows:
                 return self._flows[key]
-            args, job = (prev.image, cur.image, self.config.flow), flow_pair
+            args, job = (prev.image, cur.image, cur.settings), flow_pair
         return self._executor.submit(job, *args) if self._executor is not None else job(*args)
+
+    @property
+    def _flow_settings(self) -> FlowSettings:
+        """Return the flow's settings: full detail until vibration is decided, and after.
+
+        Full detail also for good once a frame had an object spinning or kept whole. The
+        probe's frame pairs decide whether the clip vibrates, and a vibrating clip's
+        rows need the finest flow: the polished flow (``detail='polished'``) lost 0.06x
+        on the simulated drone jello; it is smooth enough to pass a spinning wheel's
+        flow as consistent, which then went uncorrected (0.13x -> 0.29x;
+        ``docs/measurements.md``). A clip's first 8-16 pairs cost the full flow.
+        """
+        if self._decided and not self._fine:
+            return self.config.flow
+        return dataclasses.replace(self.config, detail="full").flow
 
     def _take_flows(self, keep: int) -> None:
         """Take the measured flows in order: until ``keep`` are left, then those done.
@@ -213,7 +233,7 @@ class DenseMethod:
                 job = job.result()
                 if self.config.per_pixel and self._flows is not None:
                     self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
-                                 self.config.flow)] = job
+                                 cur.settings)] = job
             self._pending.popleft()
             if self.config.per_pixel:
                 cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
@@ -376,6 +396,7 @@ class DenseMethod:
         field, folds, kept, spun, said, fronts = self._safe_field(
             fr, cam_disp[:, None, :] - field_resid, cam_disp, fallback, entering, float(t_ref),
             c_at, u_rows.mean(axis=0))
+        self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty

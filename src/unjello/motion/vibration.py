@@ -22,9 +22,11 @@ __all__ = ["VIBRATION", "PROBE_CONTRAST", "PROBE_WAIT", "vibration_level",
 
 #: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
 #: of about one beat period, a trajectory that may bend at scanline resolution, six
-#: sinusoids of free frequency, DIS medium's own refinement (``docs/tuning.md``).
+#: sinusoids of free frequency, DIS medium's own refinement at full resolution
+#: (``docs/tuning.md``; the polished flow lost 0.06x on the simulated drone jello:
+#: ``docs/measurements.md``).
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
-                             "refinement": None}
+                             "refinement": None, "detail": "full"}
 
 # Vibration is detected (:func:`vibration_level`) above this wobble, as a fraction of the
 # frame height, making up at least this share of the non-steady row flow: the share tells

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from unjello.coarse_remap import coarse_at, remap_coarse
+from unjello.band_remap import coarse_at, remap_coarse, remap_scanlines
 from unjello.timing import pixel_grid
-from unjello.warp import apply_maps, resize_maps
+from unjello.warp import apply_maps, remap_maps, resize_maps, scanline_sources
 
 
 def _maps(gh: int, gw: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -54,3 +54,14 @@ def test_coarse_at_is_the_upsampled_map_at_those_pixels() -> None:
     px, py = coarse_at(maps, (108, 192), ys, xs)
     assert np.abs(px - full[0][ys, xs]).max() < 1e-3
     assert np.abs(py - full[1][ys, xs]).max() < 1e-3
+
+
+@pytest.mark.parametrize("fill", ["nearest", "black"])
+def test_remap_scanlines_is_remap_maps_band_by_band(fill: str) -> None:
+    # A per-scanline shear and stretch with rows read from outside the frame at the ends.
+    rng = np.random.default_rng(6)
+    img = rng.integers(0, 255, (130, 90)).astype(np.uint8)
+    rows = np.arange(130)
+    disp = np.stack([6 * np.sin(rows / 17), 0.08 * rows - 4], axis=1)
+    ref = apply_maps(img, remap_maps(disp, 90), fill=fill)
+    assert np.array_equal(remap_scanlines(img, *scanline_sources(disp), fill=fill), ref)

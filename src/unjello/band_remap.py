@@ -1,25 +1,30 @@
-"""The backward warp straight from coarse maps: no full-size map is ever written.
+"""Backward warps band by band, from maps that are never written whole.
 
-The dense method's backward maps live on its working grid (480 px wide by default); a
-1080p luma plane needs them 4x finer. Upsampling them whole
-(:func:`unjello.warp.resize_maps`) and then :func:`cv2.remap` writes and reads 16 MB of
-maps a 1080p plane (64 MB at 4K), and in a real run, with the decoder and the encoder
-using the caches too, that memory traffic cost as much as the interpolation
-(``docs/measurements.md``). :func:`remap_coarse` upsamples the maps along x once per
-coarse row, then band by band (32 K samples, held in the core's cache) along y with a
-compiled kernel (Numba) and remaps each band with :func:`cv2.remap` into the output: the
-same maps, the same sampling, a fraction of the memory. ``tests/test_coarse_remap.py``
-compares it with ``apply_maps(resize_maps(...))``. :func:`coarse_at` gives the same
-upsampled maps at chosen pixels.
+A backward warp (:func:`cv2.remap`) reads two float maps the size of the plane: 16 MB for a
+1080p luma plane, 64 MB at 4K. Written whole and then read, in a real run with the
+decoder and the encoder using the caches too, that memory traffic cost as much as the
+interpolation (``docs/measurements.md``). Here the maps are made a band of rows at a time
+(32 K samples, both maps held in the core's cache) and each band is remapped into the
+output: the same maps, the same sampling, a fraction of the memory.
+
+- :func:`remap_coarse`: the dense method's maps, on its working grid (480 px wide by
+  default), upsampled along x once per coarse row and along y band by band with a
+  compiled kernel (Numba); :func:`coarse_at` gives them at chosen pixels.
+- :func:`remap_scanlines`: a per-scanline displacement (eq. 26), one source row and
+  one shift per output row.
+
+``tests/test_band_remap.py`` compares both with the whole maps of :mod:`unjello.warp`.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import cv2
 import numba
 import numpy as np
 
-__all__ = ["remap_coarse", "coarse_at"]
+__all__ = ["remap_coarse", "coarse_at", "remap_scanlines"]
 
 #: Map samples per band (both maps in float32: 256 KB, held in the core's cache).
 _BAND = 32768
@@ -71,6 +76,55 @@ def _band_maps(wide_x: np.ndarray, wide_y: np.ndarray, lo: int, rows: tuple,
             out_y[i, x] = (wide_y[r0, x] + fv * (wide_y[r1, x] - wide_y[r0, x])) * sy + off_y
 
 
+def _banded(image: np.ndarray, band: Callable[[int, np.ndarray, np.ndarray], None],
+            fill: str) -> np.ndarray:
+    """Remap ``image`` band by band; ``band(lo, bx, by)`` fills the maps of rows ``lo ..``."""
+    h, w = image.shape[:2]
+    out = np.empty_like(image)
+    rows = max(1, _BAND // w)
+    bx, by = np.empty((rows, w), np.float32), np.empty((rows, w), np.float32)
+    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
+    for lo in range(0, h, rows):
+        n = min(rows, h - lo)
+        band(lo, bx[:n], by[:n])
+        cv2.remap(image, bx[:n], by[:n], cv2.INTER_LINEAR, dst=out[lo:lo + n],
+                  borderMode=border, borderValue=0)
+    return out
+
+
+def remap_scanlines(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, fill: str = "nearest"
+                    ) -> np.ndarray:
+    """Backward warp of a per-scanline displacement: output row ``y`` reads row ``sy[y]``.
+
+    Equal to ``apply_maps(image, remap_maps(...))`` of :mod:`unjello.warp`, band by band.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w[, c])
+    dx, sy : ndarray of shape (h,)
+        Each output row's source row and its shift along x
+        (:func:`~unjello.warp.scanline_sources`).
+    fill : {'nearest', 'black'}
+
+    Examples
+    --------
+    >>> img = np.tile(np.arange(6, dtype=np.uint8), (3, 1))
+    >>> remap_scanlines(img, np.float32([0, 1, 2]), np.float32([0, 1, 2]))[2].tolist()
+    [2, 3, 4, 5, 5, 5]
+    """
+    w = image.shape[1]
+    cols = np.arange(w, dtype=np.float32)
+    dx = np.asarray(dx, np.float32)
+    sy = np.asarray(sy, np.float32)
+
+    def band(lo: int, bx: np.ndarray, by: np.ndarray) -> None:
+        n = bx.shape[0]
+        np.add(cols[None, :], dx[lo:lo + n, None], out=bx)
+        by[...] = sy[lo:lo + n, None]
+
+    return _banded(np.ascontiguousarray(image), band, fill)
+
+
 def remap_coarse(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
                  fill: str = "nearest") -> np.ndarray:
     """Backward warp of ``image`` by coarse maps, upsampled on the fly to its size.
@@ -116,16 +170,11 @@ def remap_coarse(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
     cols = ((col_b + np.float32(0.5)) * sx - np.float32(0.5), sx)
     row_lo, row_f, row_b = _axis(h, gh)
     axis_rows = (row_lo, row_f, row_b, sy)
-    out = np.empty_like(img)
-    rows = max(1, _BAND // w)
-    bx, by = np.empty((rows, w), np.float32), np.empty((rows, w), np.float32)
-    border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
-    for lo in range(0, h, rows):
-        n = min(rows, h - lo)
-        _band_maps(wide_x, wide_y, lo, axis_rows, cols, bx[:n], by[:n])
-        cv2.remap(img, bx[:n], by[:n], cv2.INTER_LINEAR, dst=out[lo:lo + n],
-                  borderMode=border, borderValue=0)
-    return out
+
+    def band(lo: int, bx: np.ndarray, by: np.ndarray) -> None:
+        _band_maps(wide_x, wide_y, lo, axis_rows, cols, bx, by)
+
+    return _banded(img, band, fill)
 
 
 def coarse_at(maps: tuple[np.ndarray, np.ndarray], size: tuple[int, int], ys: np.ndarray,
