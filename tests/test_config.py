@@ -36,11 +36,12 @@ def test_presets_are_library_objects(tmp_path):
     assert mine.origins["readout"] == "preset my.json"
     # A preset applied to other settings keeps what it does not name.
     assert CorrectionConfig.from_preset("drone", base=mine).method == "paper"
-    assert set(PRESETS) == {"paper-figures", "fast", "best", "drone", "handheld"}
-    # best: the flow as it was before issue 37 (DIS down to full resolution, no polish).
-    best = CorrectionConfig.from_preset("best").dense.flow
-    assert (best.finest_scale, best.refinement, best.polish) == (None, 1, 0)
-    assert CorrectionConfig().dense.flow.polish == 3
+    assert set(PRESETS) == {"paper-figures", "fast", "drone", "handheld"}
+    # The default flow goes down to full resolution; the polished one is asked for.
+    full = CorrectionConfig().dense.flow
+    assert (full.finest_scale, full.refinement, full.polish) == (None, 1, 0)
+    polished = CorrectionConfig().with_options(flow_detail="polished").dense.flow
+    assert (polished.finest_scale, polished.refinement, polished.polish) == (1, 3, 3)
 
 
 @pytest.mark.parametrize("value, parsed", [

@@ -8,8 +8,8 @@ interpolation (``docs/measurements.md``). Here the maps are made a band of rows 
 output: the same maps, the same sampling, a fraction of the memory.
 
 - :func:`remap_coarse`: the dense method's maps, on its working grid (480 px wide by
-  default), upsampled along x once per coarse row and along y band by band with a
-  compiled kernel (Numba); :func:`coarse_at` gives them at chosen pixels.
+  default), upsampled along x once per coarse row and along y band by band;
+  :func:`coarse_at` gives them at chosen pixels.
 - :func:`remap_scanlines`: a per-scanline displacement (eq. 26), one source row and
   one shift per output row.
 
@@ -21,7 +21,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import cv2
-import numba
 import numpy as np
 
 __all__ = ["remap_coarse", "coarse_at", "remap_scanlines"]
@@ -30,7 +29,6 @@ __all__ = ["remap_coarse", "coarse_at", "remap_scanlines"]
 _BAND = 32768
 
 
-@numba.njit(cache=True, nogil=True)
 def _axis(n_out: int, n_coarse: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per output pixel along one axis: lower coarse index, the upper one's weight, beyond.
 
@@ -38,42 +36,11 @@ def _axis(n_out: int, n_coarse: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     beyond the outermost coarse centres the position is held and ``beyond`` (in coarse
     samples) says how far past it the pixel lies.
     """
-    scale = n_coarse / n_out
-    lo = np.empty(n_out, np.int64)
-    frac = np.empty(n_out, np.float32)
-    beyond = np.empty(n_out, np.float32)
-    for i in range(n_out):
-        u = (i + 0.5) * scale - 0.5
-        uc = min(max(u, 0.0), n_coarse - 1.0)
-        k = min(int(np.floor(uc)), max(n_coarse - 2, 0))
-        lo[i] = k
-        frac[i] = uc - k if n_coarse > 1 else 0.0
-        beyond[i] = u - uc
-    return lo, frac, beyond
-
-
-@numba.njit(cache=True, nogil=True)
-def _band_maps(wide_x: np.ndarray, wide_y: np.ndarray, lo: int, rows: tuple,
-               cols: tuple, out_x: np.ndarray, out_y: np.ndarray) -> None:
-    """Rows ``lo ..`` of the upsampled maps into ``out_x, out_y`` (one band).
-
-    ``wide_x, wide_y`` are the coarse maps already upsampled along x (gh, w), in grid
-    units; ``rows`` and ``cols`` the two axes' :func:`_axis` with the scales.
-    """
-    row_lo, row_f, row_b, sy = rows
-    col_off, sx = cols  # per column: (beyond + 1/2) * sx - 1/2
-    gh, w = wide_x.shape
-    half = np.float32(0.5)
-    for i in range(out_x.shape[0]):
-        y = lo + i
-        r0 = row_lo[y]
-        r1 = min(r0 + 1, gh - 1)
-        fv = row_f[y]
-        off_y = (row_b[y] + half) * sy - half
-        for x in range(w):
-            out_x[i, x] = (wide_x[r0, x] + fv * (wide_x[r1, x] - wide_x[r0, x])) * sx \
-                + col_off[x]
-            out_y[i, x] = (wide_y[r0, x] + fv * (wide_y[r1, x] - wide_y[r0, x])) * sy + off_y
+    u = (np.arange(n_out) + 0.5) * (n_coarse / n_out) - 0.5
+    uc = np.clip(u, 0.0, n_coarse - 1.0)
+    lo = np.minimum(np.floor(uc).astype(np.int64), max(n_coarse - 2, 0))
+    frac = (uc - lo) if n_coarse > 1 else np.zeros(n_out)
+    return lo, frac.astype(np.float32), (u - uc).astype(np.float32)
 
 
 def _banded(image: np.ndarray, band: Callable[[int, np.ndarray, np.ndarray], None],
@@ -169,10 +136,21 @@ def remap_coarse(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
     col_b = _axis(w, gw)[2]
     cols = ((col_b + np.float32(0.5)) * sx - np.float32(0.5), sx)
     row_lo, row_f, row_b = _axis(h, gh)
-    axis_rows = (row_lo, row_f, row_b, sy)
+    row_hi = np.minimum(row_lo + 1, gh - 1)
+    off_y = (row_b + np.float32(0.5)) * sy - np.float32(0.5)
 
     def band(lo: int, bx: np.ndarray, by: np.ndarray) -> None:
-        _band_maps(wide_x, wide_y, lo, axis_rows, cols, bx, by)
+        """Rows ``lo ..`` of the maps: the two x-upsampled coarse rows around each, blended."""
+        rows = slice(lo, lo + bx.shape[0])
+        fv = row_f[rows, None]
+        for out, wide, scale, off in ((bx, wide_x, sx, cols[0][None, :]),
+                                      (by, wide_y, sy, off_y[rows, None])):
+            top = wide[row_lo[rows]]
+            np.subtract(wide[row_hi[rows]], top, out=out)
+            out *= fv
+            out += top
+            out *= scale
+            out += off
 
     return _banded(img, band, fill)
 

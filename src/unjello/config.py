@@ -392,9 +392,9 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
     Option("flow_preset", "dense.flow_preset", "Dense method: DIS optical flow preset "
            "(speed vs accuracy).", choices=("ultrafast", "fast", "medium")),
     Option("flow_detail", "dense.detail", "Dense method: 'full' measures the flow at the "
-           "working copy's full resolution (preset best: twice the flow's cost for 0.1 dB "
-           "on the research pairs); 'polished' at half of it, refined at full.",
-           choices=("polished", "full")),
+           "working copy's full resolution; 'polished' at half of it, refined at full (half "
+           "the flow's cost, 0.1 dB less on the research pairs; misses fast spinners).",
+           choices=("full", "polished")),
     Option("work_width", "dense.work_width", "Dense method: estimate motion on frames at "
            "most this wide (0: full).", kind="int"),
     Option("camera_only", "dense.per_pixel", "Dense method: camera trajectory only, one "
@@ -463,8 +463,6 @@ PRESETS: dict[str, dict[str, Any]] = {
     # Transcode-rate speed: the camera trajectory alone (no per-pixel parallax), from
     # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
     "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
-    # The finest flow, at twice its cost: the default up to issue 37, bit for bit.
-    "best": {"flow_detail": "full"},
     # Drones and vehicles: vibration near the frame rate.
     "drone": {"vibration": "on"},
     # Hand-held walking shots: the correction and a stabilisation in one warp.

@@ -205,16 +205,15 @@ class DenseMethod:
 
     @property
     def _flow_settings(self) -> FlowSettings:
-        """Return the flow's settings: full detail until vibration is decided, and after.
+        """Return the flow's settings: full detail for good once an object spun or was kept.
 
-        Full detail also for good once a frame had an object spinning or kept whole. The
-        probe's frame pairs decide whether the clip vibrates, and a vibrating clip's
-        rows need the finest flow: the polished flow (``detail='polished'``) lost 0.06x
-        on the simulated drone jello; it is smooth enough to pass a spinning wheel's
-        flow as consistent, which then went uncorrected (0.13x -> 0.29x;
-        ``docs/measurements.md``). A clip's first 8-16 pairs cost the full flow.
+        The polished flow (``detail='polished'``) is smooth enough to pass a spinning
+        wheel's flow as consistent, which then went uncorrected (the simulated wheel
+        0.13x -> 0.29x; ``docs/measurements.md``): once a frame had an object spinning or
+        kept whole, the flows that follow are the full ones. (A vibrating clip's are
+        too: :data:`~unjello.motion.vibration.VIBRATION` sets them.)
         """
-        if self._decided and not self._fine:
+        if not self._fine:
             return self.config.flow
         return dataclasses.replace(self.config, detail="full").flow
 

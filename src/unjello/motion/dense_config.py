@@ -15,7 +15,7 @@ from .vibration import VIBRATION
 
 __all__ = ["DenseConfig", "POLISHED"]
 
-#: The default flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
+#: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
 #: refinement iterations a level, then three at full resolution. Measured against other
 #: mixes (``docs/measurements.md``): the research pairs 28.69 / 31.46 dB (``full``: 28.78 /
 #: 31.57), the flow of a 480 x 270 copy in 22 ms of one core (``full``: 40).
@@ -47,12 +47,13 @@ class DenseConfig:
         Frame pairs before a frame used too.
     consistency : float
         Forward-backward flow disagreement (px) above which a pixel is unreliable.
-    detail : {'polished', 'full'}
-        How finely the ``medium`` flow is measured. ``polished``: DIS down to half the
-        working copy's resolution (:data:`POLISHED`), then variational refinement at its
-        full resolution; ``full``: DIS down to full resolution on copies up to 480 px
-        wide (``finest_scale``, ``refinement``), twice the flow's cost for 0.1 dB on the
-        research pairs (``docs/measurements.md``; the ``best`` preset).
+    detail : {'full', 'polished'}
+        How finely the ``medium`` flow is measured. ``full``: DIS down to full resolution
+        on copies up to 480 px wide (``finest_scale``, ``refinement``). ``polished``: DIS
+        down to half the working copy's resolution (:data:`POLISHED`), then variational
+        refinement at its full resolution: half the flow's cost, 0.1 dB less on the
+        research pairs, and spinning objects missed (``docs/measurements.md``); the
+        first spinning or kept object turns the full flow back on.
     finest_scale : int, optional
         With ``detail='full'``: DIS finest pyramid level (0 = full resolution). Default:
         the preset's, except that ``medium`` works at full resolution on copies up to
@@ -98,7 +99,7 @@ class DenseConfig:
     window: int = 2
     history: int = 2
     consistency: float = 3.0
-    detail: str = "polished"
+    detail: str = "full"
     finest_scale: int | None = None
     refinement: int | None = 1
     fill_sigma: float = 12.0
