@@ -170,7 +170,6 @@ STAGES = (
                                                 ("unjello.motion.dense.DenseMethod",
                                                  "flush")]),
     ("backward map (fixed point, working grid)", [("unjello.warp", "field_maps")]),
-    ("warp from coarse maps (every plane)", [("unjello.warp", "remap_coarse")]),
     ("map upsampling (per plane size)", [("unjello.warp", "resize_maps")]),
     ("remap (every plane)", [("unjello.warp", "apply_maps")]),
     ("fill from neighbours", [("unjello.warp", "neighbour_sources"),

@@ -122,7 +122,7 @@ def test_neighbour_sources_coarse_test_finds_the_same_pixels():
     flows = [np.broadcast_to(np.array([dx, dy], np.float32), (30, 40, 2)).copy()
              for dx in (-3, 0, 3) for dy in (-3, 0, 3) if dx or dy]  # 9 px of the plane
     a = neighbour_sources(full, flows)
-    b = neighbour_sources((cmx, cmy), flows, size=(90, 120))
+    b = neighbour_sources(full, flows, coarse=(cmx, cmy))
 
     def found(parts):
         return sorted((y, x) for p in parts for y, x in zip(p[1].tolist(), p[2].tolist(),

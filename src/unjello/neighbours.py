@@ -12,8 +12,6 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .band_remap import coarse_at
-
 __all__ = ["neighbour_sources", "fill_from_neighbours"]
 
 
@@ -31,7 +29,7 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
-                      size: tuple[int, int] | None = None
+                      coarse: tuple[np.ndarray, np.ndarray] | None = None
                       ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Where to take the output pixels whose source lies outside the frame.
 
@@ -42,41 +40,41 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
 
     Parameters
     ----------
-    maps : tuple of ndarray
-        The plane's backward maps (plane pixels), or with ``size`` the coarse maps the
-        plane's are upsampled from (:func:`~unjello.band_remap.remap_coarse`).
+    maps : tuple of ndarray of shape (h, w)
+        The plane's backward maps (plane pixels).
     flows : list of ndarray
         Flow from this frame to each neighbour, (hf, wf, 2) in pixels of that (hf, wf)
         grid; a pixel goes to the first neighbour that saw it.
-    size : tuple of int, optional
-        ``(h, w)`` of the plane, when ``maps`` are coarse: only pixels near a coarse
-        sample that leaves the frame can leave it, so only those are looked at.
+    coarse : tuple of ndarray, optional
+        The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
+        only pixels near a coarse sample that leaves the frame can leave it, so the
+        full-resolution test is limited to those.
 
     Returns
     -------
     list of (k, ys, xs, nx, ny)
         Output pixels ``(ys, xs)`` to take from neighbour ``k`` at ``(nx, ny)``.
     """
-    th, tw = maps[0].shape
-    h, w = size if size is not None else (th, tw)
-    # A coarse sample's pixels reach up to half a sample beyond it (the upsampling
+    mx, my = maps
+    h, w = mx.shape
+    test = coarse if coarse is not None else maps
+    th, tw = test[0].shape
+    # A coarse sample's pixels reach up to half a sample beyond it (:func:`resize_maps`
     # carries the displacement to the frame's edge): only samples at least half a sample
     # inside are surely inside.
-    lo, hi = (-0.5, 0.5) if size is None else (0.0, 1.0)
-    inside = cv2.bitwise_and(cv2.inRange(maps[0], lo, tw - hi),
-                             cv2.inRange(maps[1], lo, th - hi))
+    lo, hi = (-0.5, 0.5) if coarse is None else (0.0, 1.0)
+    inside = cv2.bitwise_and(cv2.inRange(test[0], lo, tw - hi),
+                             cv2.inRange(test[1], lo, th - hi))
     if cv2.countNonZero(inside) == th * tw:
         return []
     outside = cv2.bitwise_not(inside)
-    if size is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
+    if coarse is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
         outside = cv2.resize(cv2.dilate(outside, np.ones((3, 3), np.uint8)), (w, h),
                              interpolation=cv2.INTER_NEAREST)
     pts = cv2.findNonZero(outside).reshape(-1, 2)
     xs, ys = pts[:, 0], pts[:, 1]
-    if size is None:
-        sx, sy = maps[0][ys, xs], maps[1][ys, xs]
-    else:
-        sx, sy = coarse_at(maps, size, ys, xs)
+    sx, sy = mx[ys, xs], my[ys, xs]
+    if coarse is not None:
         out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
         xs, ys, sx, sy = xs[out], ys[out], sx[out], sy[out]
     parts = []

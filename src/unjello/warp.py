@@ -27,7 +27,6 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .band_remap import remap_coarse, remap_scanlines
 from .lens import Lens
 from .neighbours import fill_from_neighbours, neighbour_sources
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
@@ -35,8 +34,7 @@ from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
            "splat", "remap", "apply_maps", "fill_holes", "field_maps", "front_maps",
-           "resize_maps", "remap_maps", "scanline_sources", "reframe_maps", "frame_maps",
-           "compose_maps"]
+           "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "compose_maps"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -95,21 +93,15 @@ def remap_maps(displacement: np.ndarray, width: int,
         Float32 buffers of shape (h, w) to fill (saves allocating them every frame).
     """
     h = displacement.shape[0]
-    dx, sy = scanline_sources(displacement)
+    sy = _inverse_rows(displacement)
+    rows = np.arange(h, dtype=np.float64)
+    dx = np.interp(sy, rows, displacement[:, 0]).astype(np.float32)
     if out is None:
         out = (np.empty((h, width), np.float32), np.empty((h, width), np.float32))
     map_x, map_y = out
     np.add(np.arange(width, dtype=np.float32)[None, :], dx[:, None], out=map_x)
-    np.copyto(map_y, sy[:, None])
+    np.copyto(map_y, sy.astype(np.float32)[:, None])
     return map_x, map_y
-
-
-def scanline_sources(displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each output row's shift along x and source row (float32) for eq. 26's displacement."""
-    sy = _inverse_rows(displacement)
-    rows = np.arange(displacement.shape[0], dtype=np.float64)
-    return (np.interp(sy, rows, displacement[:, 0]).astype(np.float32),
-            sy.astype(np.float32))
 
 
 def apply_maps(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray], fill: Fill = "nearest"
@@ -518,28 +510,20 @@ class PictureWarper:
                 if self.undistort is not None:  # a forward splat: a second resampling
                     res = apply_maps(res, self._lens(ph, pw, scale))
             else:
-                coarse = maps is not None and self.undistort is None
-                if coarse:  # straight from the coarse maps: no full-size maps written
-                    res = remap_coarse(tb, maps, fill=fill)
-                elif maps is None and self.undistort is None and motion.reframe.identity:
-                    res = remap_scanlines(tb, *scanline_sources(
-                        _plane_displacement(motion, ph, pw, h, w)), fill=fill)
-                else:
-                    if (ph, pw) not in sized:  # U and V share their maps
-                        sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
-                            reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w),
-                                                    pw, out=self._buffer(ph, pw)),
-                                         motion.reframe, (h, w)))
-                        if self.undistort is not None:  # one resampling: the maps composed
-                            sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
-                                                           self._lens(ph, pw, scale))
-                    res = apply_maps(tb, sized[(ph, pw)], fill=fill)
+                if (ph, pw) not in sized:  # U and V share their maps
+                    sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
+                        reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
+                                                out=self._buffer(ph, pw)),
+                                     motion.reframe, (h, w)))
+                    if self.undistort is not None:  # one resampling: the maps composed
+                        sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
+                                                       self._lens(ph, pw, scale))
+                res = apply_maps(tb, sized[(ph, pw)], fill=fill)
                 if maps is not None and sources:
                     if (ph, pw) not in parts:
-                        flows = [flow for _, flow in sources]
-                        parts[(ph, pw)] = (neighbour_sources(maps, flows, size=(ph, pw))
-                                           if coarse else
-                                           neighbour_sources(sized[(ph, pw)], flows))
+                        parts[(ph, pw)] = neighbour_sources(
+                            sized[(ph, pw)], [flow for _, flow in sources],
+                            maps if self.undistort is None else None)
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
             out.append(from_top_bottom(res, d))
