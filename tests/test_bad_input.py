@@ -178,10 +178,11 @@ def test_a_signal_removes_partial_output(tmp_path, good, sig, code, said):
         deadline = time.time() + 60
         while proc.poll() is None and time.time() < deadline:
             time.sleep(0.05)
-        assert proc.returncode == code
     finally:
+        rc = proc.poll()
         proc.kill()
         err = proc.communicate()[1].decode()
+    assert rc == code, err
     assert "Traceback" not in err and f"{said}; partial output removed" in err, err
     assert list(tmp_path.iterdir()) == []
 

@@ -313,6 +313,7 @@ class ThreadedWriter:
         rather than closed under it.
         """
         self._aborted = True
+        self._w.cut()
         while True:
             try:
                 self._q.get_nowait()

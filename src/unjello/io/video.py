@@ -375,6 +375,21 @@ class VideoReader:
         return frame_planes(frame)
 
 
+class _StdoutPipe:
+    """Standard output as the file PyAV writes into, cut off once the output is aborted.
+
+    PyAV writes no trailer into a file that says it is ``closed``, so an aborted output
+    never blocks on a full pipe whose reader stopped reading (a stop signal would hang).
+    """
+
+    closed = False
+
+    def write(self, data: bytes) -> int:
+        if self.closed:
+            return len(data)
+        return sys.stdout.buffer.write(data)
+
+
 class VideoWriter:
     """Encode frames to a video file, optionally copying audio streams unchanged.
 
@@ -417,8 +432,9 @@ class VideoWriter:
         try:
             if not is_pipe(path):  # created here, so that a folder we cannot write says so
                 Path(path).touch()
-            self._c = (av.open(sys.stdout.buffer, "w", format=options.format or "nut")
-                       if is_pipe(path) else av.open(str(path), "w", format=options.format))
+            self._pipe = _StdoutPipe() if is_pipe(path) else None
+            self._c = (av.open(self._pipe, "w", format=options.format or "nut")
+                       if self._pipe else av.open(str(path), "w", format=options.format))
         except OSError as exc:  # PyAV's errors are OSErrors too
             raise cannot_write(path, exc) from None
         except ValueError as exc:
@@ -524,8 +540,14 @@ class VideoWriter:
             self._c.mux(packet)
         self._c.close()
 
+    def cut(self) -> None:
+        """Write nothing more into a pipe (safe from any thread; a file is left as it is)."""
+        if self._pipe is not None:
+            self._pipe.closed = True
+
     def abort(self) -> None:
-        """Close without flushing (the caller deletes the file)."""
+        """Close without flushing (the caller deletes the file; a pipe gets nothing more)."""
+        self.cut()  # no trailer into a pipe whose reader may have stopped reading
         try:
             self._c.close()
         except av.FFmpegError:
