@@ -1,5 +1,6 @@
 """Settings resolved once: presets from Python, flat options, the timing's order and sources."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -36,12 +37,17 @@ def test_presets_are_library_objects(tmp_path):
     assert mine.origins["readout"] == "preset my.json"
     # A preset applied to other settings keeps what it does not name.
     assert CorrectionConfig.from_preset("drone", base=mine).method == "paper"
-    assert set(PRESETS) == {"paper-figures", "fast", "drone", "handheld"}
-    # The default flow goes down to full resolution; the polished one is asked for.
-    full = CorrectionConfig().dense.flow
-    assert (full.finest_scale, full.refinement, full.polish) == (None, 1, 0)
+    assert set(PRESETS) == {"paper-figures", "fast", "drone", "handheld", "best"}
+    # The default flow is polished (DIS down to half resolution, refined at full), and
+    # the full one where it does not explain a pair; --preset best always the full one,
+    # the default until issue 37.
+    full = CorrectionConfig.from_preset("best").dense.flow
+    assert (full.finest_scale, full.refinement, full.polish, full.fallback) == (None, 1, 0, None)
+    checked = CorrectionConfig().dense.flow
+    assert (checked.finest_scale, checked.refinement, checked.polish) == (1, 3, 3)
+    assert checked.fallback == full
     polished = CorrectionConfig().with_options(flow_detail="polished").dense.flow
-    assert (polished.finest_scale, polished.refinement, polished.polish) == (1, 3, 3)
+    assert polished == dataclasses.replace(checked, fallback=None)
 
 
 @pytest.mark.parametrize("value, parsed", [

@@ -32,6 +32,7 @@ from .errors import SettingsError
 from .gyrolog import GyroConfig
 from .io.video import EncodeOptions
 from .motion.dense import DenseConfig
+from .motion.dense_config import DETAILS
 from .motion.paper import PaperConfig
 from .stabilize import StabilizeConfig, crop_request
 from .timing import (
@@ -393,8 +394,9 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "(speed vs accuracy).", choices=("ultrafast", "fast", "medium")),
     Option("flow_detail", "dense.detail", "Dense method: 'full' measures the flow at the "
            "working copy's full resolution; 'polished' at half of it, refined at full (half "
-           "the flow's cost, 0.1 dB less on the research pairs; misses fast spinners).",
-           choices=("full", "polished")),
+           "the flow's cost, 0.1 dB less on the research pairs; misses fast spinners); "
+           "'checked' polished where it explains the frame pair, full where not (spinners, "
+           "jello).", choices=DETAILS),
     Option("work_width", "dense.work_width", "Dense method: estimate motion on frames at "
            "most this wide (0: full).", kind="int"),
     Option("camera_only", "dense.per_pixel", "Dense method: camera trajectory only, one "
@@ -463,6 +465,9 @@ PRESETS: dict[str, dict[str, Any]] = {
     # Transcode-rate speed: the camera trajectory alone (no per-pixel parallax), from
     # DIS "ultrafast" flow on a 320 px copy; the encoder settings stay as given.
     "fast": {"camera_only": True, "flow_preset": "ultrafast", "work_width": 320},
+    # The finest flow on every frame pair (the default until issue 37: a little more quality
+    # on parallax and moving objects, the flow at twice the cost).
+    "best": {"flow_detail": "full"},
     # Drones and vehicles: vibration near the frame rate.
     "drone": {"vibration": "on"},
     # Hand-held walking shots: the correction and a stabilisation in one warp.

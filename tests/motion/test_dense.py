@@ -108,3 +108,33 @@ def test_flows_measured_ahead_on_threads_give_the_same_motion(scene):
             assert a.note == b.note
             if config.per_pixel:
                 assert np.array_equal(a.field, b.field)
+
+
+def test_a_vibrating_clip_has_its_probed_pairs_measured_again_in_full(scene, monkeypatch):
+    """The polished flows the vibration probe looked at are measured again at full detail
+    once the clip is found to vibrate (under the vibration model they cost the simulated
+    drone jello 0.06x), and every later pair is measured in full at once."""
+    import unjello.motion.dense as dense
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    calls = []
+
+    def spy(prev, cur, settings, *args, **kwargs):
+        calls.append((hash(np.asarray(cur).tobytes()), settings.polish))
+        return dense.flow_pair.__wrapped__(prev, cur, settings, *args, **kwargs)
+
+    spy.__wrapped__ = dense.flow_pair
+    monkeypatch.setattr(dense, "flow_pair", spy)
+    sim = list(simulate(scene, Motion("jello"), SensorTiming(1.0), 12, size=(320, 240)))
+    method = DenseMethod(SensorTiming(1.0), DenseConfig())
+    out = []
+    for k, s in enumerate(sim):
+        out += method.push(s.rolling.mean(axis=2).astype(np.uint8), k / 30)
+    out += method.flush()
+    assert method.vibrating and len(out) == 12
+    last = {}
+    for pair, polish in calls:
+        last[pair] = polish
+    assert len(last) == 11 and set(last.values()) == {0}  # each pair's last flow: full
+    assert 0 < sum(p for _, p in calls) and len(calls) < 2 * 11

@@ -88,3 +88,34 @@ def test_polished_flow_is_as_close_as_the_full_one():
     assert polished < 0.2 and full < 0.2
     assert polished < full + 0.05
     assert polished < coarse
+
+
+def _pair(scene_kind):
+    """Two grey frames of a simulated 320 x 240 pan over the astronaut, with a scene."""
+    from skimage import data
+
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    sim = list(simulate(data.astronaut(), Motion("pan", speed=5.0), SensorTiming(1.0), 2,
+                        size=(320, 240), layers=scene_kind, layer_image=data.coffee()))
+    return [s.rolling.mean(axis=2).astype(np.float32) for s in sim]
+
+
+def test_the_checked_flow_is_polished_unless_that_misses_a_spinner():
+    # The polished flow passes a spinning wheel's blades as consistent (a smooth wrong
+    # motion): the checked flow sees the pixels it carries onto unlike grey levels and
+    # measures that pair at full detail; a plain pan keeps the polished flow.
+    from unjello.motion.dense_config import DenseConfig
+    from unjello.motion.flow import explains, flow_pair
+
+    checked, polished = (DenseConfig(detail=d).flow for d in ("checked", "polished"))
+    full = DenseConfig(detail="full").flow
+    assert checked.fallback == full and polished.fallback is None
+    for kind, explained in (("planar", True), ("wheel", False)):
+        prev, cur = _pair(kind)
+        smooth = flow_pair(prev, cur, polished)
+        assert explains(prev, cur, smooth[0]) is explained
+        expected = smooth if explained else flow_pair(prev, cur, full)
+        got = flow_pair(prev, cur, checked)
+        assert all(np.array_equal(a, b) for a, b in zip(got, expected, strict=True))

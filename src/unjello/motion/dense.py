@@ -58,7 +58,7 @@ from .flow import (
     optical_flow,
     row_flows,
 )
-from .safety import failed_blobs, fold_blobs, fold_share, keep_whole
+from .safety import failed_blobs, fold_blobs, fold_share, keep_whole, unlike_neighbours
 from .spin import keep_spinning
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
@@ -79,12 +79,6 @@ FOLD_WARNING = 0.002
 #: (``docs/measurements.md``).
 KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
 
-#: Grey levels (0-255, blurred) by which a pixel must differ from both neighbours, moved
-#: by the camera, to move on its own (:meth:`DenseMethod._changing`).
-CHANGE_LEVEL = 12.0
-#: ... not told where the camera moves more than this share of the width between the
-#: frames: the whip pans over texture lost 0.003-0.007x with such islands kept whole.
-CHANGE_PAN = 0.05
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
@@ -230,9 +224,8 @@ class DenseMethod:
                 if len(self._pending) <= keep and not job.done():
                     return
                 job = job.result()
-                if self.config.per_pixel and self._flows is not None:
-                    self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
-                                 cur.settings)] = job
+                if self.config.per_pixel:
+                    self._keep_flows(prev, cur, job)
             self._pending.popleft()
             if self.config.per_pixel:
                 cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
@@ -246,6 +239,12 @@ class DenseMethod:
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
+
+    def _keep_flows(self, prev: _Frame, cur: _Frame, job: tuple) -> None:
+        """Keep a pair's measured flows for the caller's other methods (if it keeps them)."""
+        if self._flows is not None:
+            self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
+                         cur.settings)] = job
 
     def _row_equations(self, prev: _Frame, cur: _Frame) -> tuple:
         """Row flows of ``cur`` -> equations ``c(t_a) - c(t_b) + u(y)(t_a - t_b) = delta``."""
@@ -285,6 +284,32 @@ class DenseMethod:
             self.wobble = float(wobble)
             self._note = (f"vibration detected (wobble {100 * wobble:.2f}% of the height): "
                           "one-second window")
+            self._remeasure()
+
+    def _remeasure(self) -> None:
+        """Measure the probed pairs' polished flows again, at the vibration's full detail.
+
+        Under a vibration model the polished flows of the probe cost the simulated drone
+        jello 0.06x (0.644x -> 0.704x of the uncorrected error; ``docs/measurements.md``);
+        the frames are all still held while the probe decides, so their flows are measured
+        again (once per vibrating clip), and the pairs already started too.
+        """
+        if not self.config.per_pixel:
+            return
+        held = list(self._frames)
+        redo = [(prev, cur) for prev, cur in zip(held, held[1:], strict=False)
+                if cur.bwd is not None and cur.settings is not None and cur.settings.polish]
+        jobs = [self._measure(prev, cur) for prev, cur in redo]
+        for (prev, cur), job in zip(redo, jobs, strict=True):
+            job = job.result() if isinstance(job, Future) else job
+            self._keep_flows(prev, cur, job)
+            cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
+        again = {cur.index: (prev, cur) for prev, cur in redo}
+        self._equations = deque((i, self._row_equations(*again[i]) if i in again else eq)
+                                for i, eq in self._equations)
+        self._pending = deque((prev, cur, self._measure(prev, cur) if cur.settings is not None
+                               and cur.settings.polish else job)
+                              for prev, cur, job in self._pending)
 
     def _ready(self, final: bool) -> list[FrameMotion]:
         out: list[FrameMotion] = []
@@ -453,33 +478,11 @@ class DenseMethod:
 
     def _changing(self, fr: _Frame, c_at: Callable[[np.ndarray], np.ndarray]
                   ) -> np.ndarray | None:
-        """Pixels unlike both neighbours brought over by the camera's motion (bool).
-
-        Each neighbour is moved by the camera's displacement between the two frames'
-        scanline times and compared; what differs from both (blurred, above
-        :data:`CHANGE_LEVEL` grey levels or four times the frame's median difference)
-        moves on its own: a spinning object shows as a whole, arms, rings and all, where
-        its flow's failures are only patches. None without a neighbour, or in a fast pan
-        (:data:`CHANGE_PAN`).
-        """
-        h, w = fr.image.shape
-        t_rows = self.timing.row_times(h, fr.start) - fr.start
-        rows = np.arange(h, dtype=np.float32)[:, None]
-        cols = np.arange(w, dtype=np.float32)[None, :]
-        diffs = []
-        for other in (f for f in self._frames if abs(f.index - fr.index) == 1):
-            d = (c_at(t_rows + (other.start - fr.start)) - c_at(t_rows)).astype(np.float32)
-            if float(np.abs(d).max()) > CHANGE_PAN * w:
-                return None  # a fast pan: the camera's model leaves too much to tell by
-            mx = np.ascontiguousarray(np.broadcast_to(cols + d[:, :1], (h, w)))
-            my = np.ascontiguousarray(np.broadcast_to(rows + d[:, 1:], (h, w)))
-            seen = cv2.remap(np.asarray(other.image, np.float32), mx, my, cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REPLICATE)
-            diffs.append(np.abs(np.asarray(fr.image, np.float32) - seen))
-        if not diffs:
-            return None
-        diff = cv2.GaussianBlur(np.minimum.reduce(diffs), (0, 0), 2.0)
-        return diff > max(CHANGE_LEVEL, 4.0 * float(np.median(diff)))
+        """Pixels unlike both neighbours brought over by the camera (:func:`unlike_neighbours`)."""
+        t_rows = self.timing.row_times(fr.image.shape[0], fr.start) - fr.start
+        others = [(f.image, f.start - fr.start) for f in self._frames
+                  if abs(f.index - fr.index) == 1]
+        return unlike_neighbours(fr.image, others, c_at, t_rows)
 
     def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
                             regions: np.ndarray, t_ref: float,

@@ -13,7 +13,10 @@ from ..errors import SettingsError
 from .flow import FlowSettings
 from .vibration import VIBRATION
 
-__all__ = ["DenseConfig", "POLISHED"]
+__all__ = ["DenseConfig", "POLISHED", "DETAILS"]
+
+#: The flow's levels of detail (:attr:`DenseConfig.detail`).
+DETAILS = ("full", "polished", "checked")
 
 #: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
 #: refinement iterations a level, then three at full resolution. Measured against other
@@ -47,13 +50,15 @@ class DenseConfig:
         Frame pairs before a frame used too.
     consistency : float
         Forward-backward flow disagreement (px) above which a pixel is unreliable.
-    detail : {'full', 'polished'}
+    detail : {'full', 'polished', 'checked'}
         How finely the ``medium`` flow is measured. ``full``: DIS down to full resolution
         on copies up to 480 px wide (``finest_scale``, ``refinement``). ``polished``: DIS
         down to half the working copy's resolution (:data:`POLISHED`), then variational
         refinement at its full resolution: half the flow's cost, 0.1 dB less on the
         research pairs, and spinning objects missed (``docs/measurements.md``); the
-        first spinning or kept object turns the full flow back on.
+        first spinning or kept object turns the full flow back on. ``checked``: the
+        polished flow where it explains the frame pair, the full one where it does not
+        (:func:`~unjello.motion.flow.explains`: a spinner, jello).
     finest_scale : int, optional
         With ``detail='full'``: DIS finest pyramid level (0 = full resolution). Default:
         the preset's, except that ``medium`` works at full resolution on copies up to
@@ -99,7 +104,7 @@ class DenseConfig:
     window: int = 2
     history: int = 2
     consistency: float = 3.0
-    detail: str = "full"
+    detail: str = "checked"
     finest_scale: int | None = None
     refinement: int | None = 1
     fill_sigma: float = 12.0
@@ -117,18 +122,21 @@ class DenseConfig:
         if self.work_width < 0:
             raise SettingsError(f"work width must be 0 (full size) or more, got "
                                 f"{self.work_width}")
-        if self.detail not in ("polished", "full"):
-            raise SettingsError(f"flow detail must be polished or full, not {self.detail!r}")
+        if self.detail not in DETAILS:
+            raise SettingsError(f"flow detail must be one of {', '.join(DETAILS)}, not "
+                                f"{self.detail!r}")
         self.flow  # checks the preset  # noqa: B018
 
     @property
     def flow(self) -> FlowSettings:
         """The flow settings of :func:`~unjello.motion.flow.flow_pair`."""
-        if self.detail == "polished":
-            return FlowSettings(self.flow_preset, consistency=self.consistency,
-                                edge_refine=self.edge_refine, **POLISHED)
-        return FlowSettings(self.flow_preset, self.finest_scale, self.refinement,
+        full = FlowSettings(self.flow_preset, self.finest_scale, self.refinement,
                             self.consistency, self.edge_refine)
+        if self.detail == "full" or self.flow_preset != "medium":
+            return full
+        return FlowSettings(self.flow_preset, consistency=self.consistency,
+                            edge_refine=self.edge_refine, **POLISHED,
+                            fallback=full if self.detail == "checked" else None)
 
     def vibrating(self) -> DenseConfig:
         """Return these settings with :data:`VIBRATION` applied (``vibration='on'``)."""

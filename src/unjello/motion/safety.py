@@ -18,11 +18,14 @@ places on the camera's motion was tried and cost the research pairs 0.1-0.9 dB:
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import cv2
 import numpy as np
 
 __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
-           "fill_hull", "fill_holes", "whole_object", "object_islands", "keep_whole"]
+           "fill_hull", "fill_holes", "whole_object", "object_islands", "keep_whole",
+           "unlike_neighbours"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
@@ -34,6 +37,13 @@ FOLD, TEAR = 0.25, 4.0
 ISLAND_FAILED = 0.2
 
 _BORDER_CONTACT = 0.08
+
+#: Grey levels (0-255, blurred) by which a pixel must differ from both neighbours, moved
+#: by the camera, to move on its own (:func:`unlike_neighbours`) ...
+CHANGE_LEVEL = 12.0
+#: ... not told where the camera moves more than this share of the width between the
+#: frames: the whip pans over texture lost 0.003-0.007x with such islands kept whole.
+CHANGE_PAN = 0.05
 
 #: What the camera's motion weighs in a kept region's fill against its surroundings'
 #: (their Gaussian weight: 0.5 at the region's edge, 1e-4 about four ``reach`` inside).
@@ -318,3 +328,46 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
     fill = (num + _CAMERA_WEIGHT * cam) / (den + _CAMERA_WEIGHT)
     out = field * (1.0 - weight) + fill * weight
     return out.astype(field.dtype), region
+
+
+def unlike_neighbours(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+                      c_at: Callable[[np.ndarray], np.ndarray], t_rows: np.ndarray
+                      ) -> np.ndarray | None:
+    """Pixels unlike both neighbours brought over by the camera's motion (bool).
+
+    Each neighbour is moved by the camera's displacement between the two frames'
+    scanline times and compared; what differs from both (blurred, above
+    :data:`CHANGE_LEVEL` grey levels or four times the frame's median difference) moves
+    on its own: a spinning object shows as a whole, arms, rings and all, where its
+    flow's failures are only patches. None without a neighbour, or in a fast pan
+    (:data:`CHANGE_PAN`).
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w)
+        The frame (grey).
+    others : sequence of (ndarray, float)
+        Its neighbours and their start times relative to its own.
+    c_at : callable
+        The camera's path: ``c_at(t)`` -> shape ``t.shape + (2,)``, times relative to the
+        frame's start.
+    t_rows : ndarray of shape (h,)
+        The frame's scanline times, relative to its start.
+    """
+    h, w = image.shape
+    rows = np.arange(h, dtype=np.float32)[:, None]
+    cols = np.arange(w, dtype=np.float32)[None, :]
+    diffs = []
+    for other, dt in others:
+        d = (c_at(t_rows + dt) - c_at(t_rows)).astype(np.float32)
+        if float(np.abs(d).max()) > CHANGE_PAN * w:
+            return None  # a fast pan: the camera's model leaves too much to tell by
+        mx = np.ascontiguousarray(np.broadcast_to(cols + d[:, :1], (h, w)))
+        my = np.ascontiguousarray(np.broadcast_to(rows + d[:, 1:], (h, w)))
+        seen = cv2.remap(np.asarray(other, np.float32), mx, my, cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)
+        diffs.append(np.abs(np.asarray(image, np.float32) - seen))
+    if not diffs:
+        return None
+    diff = cv2.GaussianBlur(np.minimum.reduce(diffs), (0, 0), 2.0)
+    return diff > max(CHANGE_LEVEL, 4.0 * float(np.median(diff)))
