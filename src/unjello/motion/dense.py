@@ -51,9 +51,8 @@ from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
 from .dense_config import DenseConfig
 from .field import (
     advected_velocity,
-    both_axes,
+    at_reference,
     fill_unreliable,
-    put,
     smooth_field,
     snap_to_global,
 )
@@ -583,28 +582,7 @@ class DenseMethod:
             dt = ahead_t[..., None]
             ahead = dt * vel - cam_disp[:, None, :]
             return dt * advected_velocity(vel, ok, flow, ahead), ~ok, entering
-        field_resid = np.zeros((h, w, 2), np.float32)
-        fallback = np.ones((h, w), dtype=bool)
-        if len(sides) == 2:
-            (ea, ra, oka, _), (eb, rb, okb, _) = sides
-            both = oka & okb
-            # Quadratic through (ea, ra), (0, 0), (eb, rb) evaluated at ahead_t (Lagrange).
-            gap = ea - eb
-            la = ahead_t - eb
-            la *= ahead_t
-            la /= ea * gap
-            lb = ahead_t - ea
-            lb *= ahead_t
-            lb /= eb * -gap
-            quad = both_axes(la) * ra
-            quad += both_axes(lb) * rb
-            put(field_resid, quad, both)
-            fallback &= ~both
-        for e, r, ok, _ in sides:  # one side only: the straight line through it
-            only = ok & fallback
-            if only.any():
-                put(field_resid, both_axes(ahead_t / e) * r, only)
-                fallback &= ~only
+        field_resid, fallback = at_reference([(e, r, ok) for e, r, ok, _ in sides], ahead_t)
         field_resid = smooth_field(fill_unreliable(field_resid, ~fallback,
                                                      self.config.fill_sigma))
         return field_resid, fallback, entering & fallback

@@ -17,7 +17,7 @@ from .camera import BLAS
 from .flow import patch_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
-           "advected_velocity", "snap_to_global", "put", "both_axes"]
+           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference"]
 
 
 def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
@@ -215,3 +215,59 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
               <= patch_cost(cur, other, gx, gy, flow, window))
     put(glob, flow, ~better)
     return glob
+
+
+def at_reference(sides: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                 ahead: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's residual motion carried to the reference time, from its neighbours'.
+
+    With both neighbours' residuals reliable, the quadratic through ``(e_a, r_a)``, the
+    pixel's own time ``(0, 0)`` and ``(e_b, r_b)`` (Lagrange), evaluated at ``ahead``; with
+    one, the straight line through it and ``(0, 0)``.
+
+    Parameters
+    ----------
+    sides : list of (e, r, ok)
+        Per neighbour: the time from each pixel's own to where its flow lands in that
+        frame, shape (h, w); the residual flow there, (h, w, 2); its reliable pixels.
+    ahead : ndarray of shape (h, 1) or (h, w)
+        The time from each pixel's own to the reference.
+
+    Returns
+    -------
+    field : ndarray of shape (h, w, 2), float32
+        Zero where no side is reliable.
+    fallback : ndarray of bool, shape (h, w)
+        Where no side is reliable.
+
+    Examples
+    --------
+    >>> e = np.full((1, 2), 1.0, np.float32); r = np.ones((1, 2, 2), np.float32)
+    >>> ok = np.array([[True, False]])
+    >>> field, fallback = at_reference([(e, r, ok)], np.full((1, 1), 0.5, np.float32))
+    >>> field[..., 0].tolist(), fallback.tolist()
+    ([[0.5, 0.0]], [[False, True]])
+    """
+    h, w = sides[0][2].shape
+    field = np.zeros((h, w, 2), np.float32)
+    fallback = np.ones((h, w), dtype=bool)
+    if len(sides) == 2:
+        (ea, ra, oka), (eb, rb, okb) = sides
+        both = oka & okb
+        gap = ea - eb
+        la = ahead - eb
+        la *= ahead
+        la /= ea * gap
+        lb = ahead - ea
+        lb *= ahead
+        lb /= eb * -gap
+        quad = both_axes(la) * ra
+        quad += both_axes(lb) * rb
+        put(field, quad, both)
+        fallback &= ~both
+    for e, r, ok in sides:  # one side only: the straight line through it
+        only = ok & fallback
+        if only.any():
+            put(field, both_axes(ahead / e) * r, only)
+            fallback &= ~only
+    return field, fallback

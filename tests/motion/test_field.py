@@ -1,0 +1,46 @@
+"""The flow-field helpers: masked copies, the residual carried to the reference time."""
+
+import numpy as np
+
+from unjello.motion.field import at_reference, both_axes, put
+
+
+def test_put_and_both_axes_match_their_numpy_forms():
+    rng = np.random.default_rng(0)
+    dst = rng.random((27, 48, 2), dtype=np.float32)
+    src = rng.random((27, 48, 2), dtype=np.float32)
+    where = rng.random((27, 48)) < 0.5
+    expected = dst.copy()
+    np.copyto(expected, src, where=where[..., None])
+    put(dst, src, where)
+    assert np.array_equal(dst, expected)
+    f64 = dst.astype(np.float64)  # another dtype: NumPy's copy, still in place
+    put(f64, src.astype(np.float64) + 1, ~where)
+    assert np.array_equal(f64[~where], src[~where].astype(np.float64) + 1)
+    values = rng.random((27, 48), dtype=np.float32)
+    assert np.array_equal(both_axes(values) * src, values[..., None] * src)
+
+
+def test_at_reference_is_exact_for_a_quadratic_motion():
+    # r(e) = a e + b e^2 on both sides (r(0) = 0 at the pixel's own time): the quadratic
+    # gives r at the reference exactly; one side alone gives the straight line.
+    rng = np.random.default_rng(1)
+    h, w = 20, 30
+    a, b = rng.normal(size=(h, w, 2)), rng.normal(size=(h, w, 2))
+    ea = -1 + 0.2 * rng.random((h, w))
+    eb = 1 + 0.2 * rng.random((h, w))
+    ahead = 0.3 * rng.random((h, 1)) - 0.15
+
+    def r(e):
+        return (a * e[..., None] + b * e[..., None] ** 2).astype(np.float32)
+
+    ok = np.ones((h, w), bool)
+    only_a = rng.random((h, w)) < 0.3
+    field, fallback = at_reference(
+        [(ea.astype(np.float32), r(ea), ok), (eb.astype(np.float32), r(eb), ~only_a)],
+        ahead.astype(np.float32))
+    truth = r(np.broadcast_to(ahead, (h, w)))
+    assert not fallback.any()
+    assert np.abs(field - truth)[~only_a].max() < 1e-4
+    line = (ahead / ea)[..., None] * r(ea)
+    assert np.abs(field - line)[only_a].max() < 1e-4
