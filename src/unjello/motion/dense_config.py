@@ -56,9 +56,10 @@ class DenseConfig:
         down to half the working copy's resolution (:data:`POLISHED`), then variational
         refinement at its full resolution: half the flow's cost, 0.1 dB less on the
         research pairs, and spinning objects missed (``docs/measurements.md``); the
-        first spinning or kept object turns the full flow back on. ``checked``: the
-        polished flow where it explains the frame pair, the full one where it does not
-        (:func:`~unjello.motion.flow.explains`: a spinner, jello).
+        first spinning or kept object turns the full flow back on. ``checked`` (the
+        default): the polished flow where it explains the frame pair, the full one where
+        it does not (:func:`~unjello.motion.flow.explains`: a spinner); a clip found to
+        vibrate has its probed pairs measured again in full.
     finest_scale : int, optional
         With ``detail='full'``: DIS finest pyramid level (0 = full resolution). Default:
         the preset's, except that ``medium`` works at full resolution on copies up to

@@ -133,16 +133,11 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     (True, False)
     """
     h, w = unreliable.shape
-    # Joined at half resolution (a pixel there is failed if any of its four is): the
-    # clusters only stand for objects, and the closing with a disc a tenth of the width
-    # across cost 4 ms of a 480 x 270 frame at full resolution, 0.4 ms so.
-    half = (max(1, w // 2), max(1, h // 2))
-    bad = (cv2.resize(unreliable.astype(np.uint8), half, interpolation=cv2.INTER_AREA) > 0)
-    size = max(5, half[0] // 10) | 1
+    bad = unreliable.astype(np.uint8)
+    size = max(9, w // 10) | 1
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
-    closed = cv2.morphologyEx(cv2.morphologyEx(bad.astype(np.uint8), cv2.MORPH_CLOSE, k),
-                              cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
-    closed = cv2.resize(closed, (w, h), interpolation=cv2.INTER_NEAREST)
+    closed = cv2.morphologyEx(cv2.morphologyEx(bad, cv2.MORPH_CLOSE, k), cv2.MORPH_OPEN,
+                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9)))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(closed)
     out = np.zeros((h, w), np.uint8)
     big = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= min_share * h * w]
