@@ -35,7 +35,7 @@ def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
     """
     if (src.dtype != dst.dtype or src.shape != dst.shape or not dst.flags.c_contiguous
             or dst.ndim != 3 or dst.shape[2] > 4):  # cv2 would write a new array instead
-        np.copyto(dst, src, where=where[..., None])
+        np.copyto(dst, src, where=where[..., None] if dst.ndim == 3 else where)
         return
     cv2.copyTo(src, np.ascontiguousarray(where).view(np.uint8), dst)
 
