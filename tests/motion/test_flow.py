@@ -119,3 +119,20 @@ def test_the_checked_flow_is_polished_unless_that_misses_a_spinner():
         expected = smooth if explained else flow_pair(prev, cur, full)
         got = flow_pair(prev, cur, checked)
         assert all(np.array_equal(a, b) for a, b in zip(got, expected, strict=True))
+
+
+def test_misses_are_where_the_flow_lands_on_unlike_grey_levels():
+    import cv2
+
+    from unjello.motion.flow import misses
+
+    rng = np.random.default_rng(1)
+    b = cv2.GaussianBlur(rng.uniform(0, 255, (60, 80)).astype(np.float32), (0, 0), 1)
+    a = np.roll(b, -3, axis=1)  # a(s) = b(s + (3, 0))
+    flow = np.zeros((60, 80, 2), np.float32)
+    flow[..., 0] = 3
+    flow[20:40, 30:50] = 0  # a patch it does not follow
+    found = misses(b, a, flow)
+    assert found[25:35, 35:45].mean() > 0.8
+    assert not found[:10, :72].any()  # followed
+    assert not found[:, 77:].any()  # landing outside the frame: not counted

@@ -151,3 +151,32 @@ def test_a_large_kept_region_is_filled_without_a_step():
     step = max(down[inner[1:] & inner[:-1]].max(), across[inner[:, 1:] & inner[:, :-1]].max())
     assert step < 0.3  # measured 0.14 (3.0 with the threshold)
     assert whole[100, 130, 0] == pytest.approx(0.0, abs=0.05)  # its middle: the camera's
+
+
+def test_folds_along_an_object_the_flow_follows_do_not_count():
+    """Issue 38: a near pole passing faster than the background folds the map along its
+    edges (it covers what is behind it); the flow follows it, so those folds neither
+    count nor seed, and the pole keeps its own motion. A fold on an object whose pixels
+    the flow does not explain (a spinner) still does."""
+    from unjello.motion.safety import failed_blobs, followed_objects, keep_whole
+
+    h, w = 120, 160
+    field = np.zeros((h, w, 2), np.float32)
+    field[:, 70:86, 0] = 6.0  # a pole moving 6 px further than the background
+    field[:, 66:70, 0] = np.linspace(0, 6, 4)  # ... sharply: its edge folds
+    camera = np.zeros((h, 2), np.float32)
+    pole = np.zeros((h, w), bool)
+    pole[:, 64:88] = True
+    missed = np.zeros((h, w), bool)  # the flow explains it all
+    followed = followed_objects(pole, missed)
+    assert followed[60, 75] and not followed[60, 20]
+    assert fold_share(field) > 0.01 and fold_share(field, followed) == 0.0
+    whole, kept, left, regions = keep_whole(field, camera, pole, changing=pole & ~followed,
+                                            followed=followed)
+    assert kept == 0.0 and left == 0.0 and np.array_equal(whole, field)
+    # The same object with its pixels missed in blobs: no longer followed.
+    missed[20:100, 70:86] = True
+    assert not followed_objects(pole, missed).any()
+    # Failed flow on it: a candidate spinner only where the flow does not explain it.
+    assert failed_blobs(pole, missed=missed).any()
+    assert not failed_blobs(pole, missed=np.zeros((h, w), bool)).any()

@@ -61,10 +61,18 @@ from .flow import (
     flow_pair,
     half_row_flows,
     landing,
+    misses,
     optical_flow,
     row_flows,
 )
-from .safety import failed_blobs, fold_blobs, fold_share, keep_whole, unlike_neighbours
+from .safety import (
+    failed_blobs,
+    fold_blobs,
+    fold_share,
+    followed_objects,
+    keep_whole,
+    unlike_neighbours,
+)
 from .spin import keep_spinning
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
@@ -457,14 +465,24 @@ class DenseMethod:
         folds, kept = fold_share(field), 0.0
         regions = np.zeros((h, w), bool)
         carried, self._kept = self._kept, None
+        missed = changing = followed = None
+        if folds > KEEP_ISLAND or carried is not None:
+            # Folds along an object that moves on its own and that the flow follows do
+            # not count: they are where it covers what is behind it (parallax).
+            missed, changing = self._missed(fr), self._changing(fr, c_at)
+            followed = followed_objects(changing, missed)
+            if followed is not None:
+                changing &= ~followed
+                folds = fold_share(field, followed)
         if folds > KEEP_ISLAND or carried is not None:
             # A frame that folds, or one after a frame that kept objects whole: an object
             # whose flow failed then and fails now is kept whole again (a spinning
-            # object keeps spinning), even where this frame's map barely folds.
+            # object keeps spinning), even where this frame's map barely folds. One the
+            # flow follows keeps its own motion.
             whole, share, after, regions = keep_whole(
-                field, cam_disp, fallback, changing=self._changing(fr, c_at),
-                islands_only=folds <= KEEP_WHOLE, carried=carried,
-                from_folds=folds > KEEP_ISLAND)
+                field, cam_disp, fallback,
+                changing=changing, islands_only=folds <= KEEP_WHOLE, carried=carried,
+                from_folds=folds > KEEP_ISLAND, followed=followed)
             if share > 0 and (after < folds or (carried is not None and after <= folds)):
                 folds_before = folds
                 field, folds, kept = whole, after, share
@@ -474,13 +492,34 @@ class DenseMethod:
                 notes.append(f"{100 * kept:.0f}% given the motion around it ({why})")
             else:
                 regions = np.zeros((h, w), bool)
-        regions |= failed_blobs(fallback & ~entering)
+        failed = fallback & ~entering
+        if failed.any():
+            if missed is None:
+                missed = self._missed(fr)
+            regions |= failed_blobs(failed, missed=missed)
         field, folds, spun, said, fronts = self._turn_back_spinning(
-            fr, field, folds, regions, t_ref, c_at, u_mean)
+            fr, field, folds, regions, t_ref, c_at, u_mean, followed)
         notes.append(said)
         if folds > FOLD_WARNING:
             notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
         return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts
+
+    def _missed(self, fr: _Frame) -> np.ndarray:
+        """Pixels the flow to every neighbour carries onto unlike grey levels, in blobs.
+
+        :func:`~unjello.motion.flow.misses` on each side, both at once, opened by a 7 px
+        disc: the thin lines along a near object's edges (occlusions, seen from one
+        side) go, the blobs of a flow that failed on a spinner stay.
+        """
+        near = {f.index: f for f in self._frames}
+        sides = [misses(near[fr.index + k].image, fr.image, flow)
+                 for k, flow in ((-1, fr.bwd), (1, fr.fwd))
+                 if flow is not None and fr.index + k in near]
+        if not sides:
+            return np.zeros(fr.image.shape, bool)
+        both = np.logical_and.reduce(sides).astype(np.uint8)
+        return cv2.morphologyEx(both, cv2.MORPH_OPEN, cv2.getStructuringElement(
+            cv2.MORPH_ELLIPSE, (7, 7))).astype(bool)
 
     def _changing(self, fr: _Frame, c_at: Callable[[np.ndarray], np.ndarray]
                   ) -> np.ndarray | None:
@@ -492,14 +531,16 @@ class DenseMethod:
 
     def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
                             regions: np.ndarray, t_ref: float,
-                            c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
+                            c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray,
+                            followed: np.ndarray | None
                             ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...]]:
         """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
 
         With a neighbour on each side, or one and last frame's rotations to check against
         (one side alone tells a rotation's aliases apart too poorly), and only if the map
         then folds nowhere else. Returns the field, its folds
-        (along the spinning objects' edges, occlusion boundaries, not counted), the share
+        (along the spinning objects' edges, occlusion boundaries, and along the
+        ``followed`` objects, not counted), the share
         spun, a note and the rotations' layers in front of the field.
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
@@ -523,7 +564,7 @@ class DenseMethod:
         spun_px = (weight > 0.5).astype(np.uint8)
         k = np.ones((7, 7), np.uint8)
         edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
-        after = float((fold_blobs(spinning) & ~edges).mean())
+        after = float((fold_blobs(spinning, followed) & ~edges).mean())
         if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
             return field, folds, 0.0, "", ()
         spun = float(spun_px.mean())

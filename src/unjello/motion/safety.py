@@ -25,7 +25,7 @@ import numpy as np
 
 __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
            "fill_hull", "fill_holes", "whole_object", "object_islands", "keep_whole",
-           "unlike_neighbours"]
+           "unlike_neighbours", "followed_objects", "ISLAND_MISSED", "REACH"]
 
 #: A pixel whose neighbourhood the map squeezes to less than this share of its area is a
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
@@ -37,6 +37,18 @@ FOLD, TEAR = 0.25, 4.0
 ISLAND_FAILED = 0.2
 
 _BORDER_CONTACT = 0.08
+
+#: An object that moves on its own is one the flow cannot follow (a spinner) only where
+#: the flow carries at least this share of its pixels, in blobs, onto grey levels
+#: unlike their own on every side (``missed`` of :func:`followed_objects` and
+#: :func:`failed_blobs`). Measured: the real spinners' objects 0.08-0.57 (with both
+#: neighbours 0.08-0.35); poles passing in front of a pan at 2.2 times its speed (parallax) at most
+#: 0.016 with both neighbours, 0.02-0.41 with one (``docs/measurements.md``).
+ISLAND_MISSED = 0.05
+
+#: Distance (px, at the working resolution) over which failed flow joins a blob's region
+#: (:func:`keep_whole`) and an object's pieces join (:func:`object_islands`).
+REACH = 24
 
 #: Grey levels (0-255, blurred) by which a pixel must differ from both neighbours, moved
 #: by the camera, to move on its own (:func:`unlike_neighbours`) ...
@@ -80,19 +92,26 @@ def map_jacobian(field: np.ndarray) -> np.ndarray:
     return ((1 - dxx) * (1 - dyy) - dxy * dyx).astype(np.float32)
 
 
-def fold_blobs(field: np.ndarray) -> np.ndarray:
+def fold_blobs(field: np.ndarray, followed: np.ndarray | None = None, reach: int = REACH
+               ) -> np.ndarray:
     """Pixels in blobs where the map folds or tears (bool, shape (h, w)).
 
     Pixels whose determinant is below :data:`FOLD` or above :data:`TEAR` and that survive
     an opening by a 3x3 disc (so not the thin lines of a correct map's occlusion edges).
+    With ``followed`` (objects that move on their own and that the flow follows,
+    :func:`followed_objects`), not those within ``reach`` of one: they are where a near
+    object covers what is behind it (parallax), as they should be.
     """
     det = map_jacobian(field)
     bad = ((det < FOLD) | (det > TEAR)).astype(np.uint8)
-    return cv2.morphologyEx(bad, cv2.MORPH_OPEN,
-                            cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))).astype(bool)
+    found = cv2.morphologyEx(bad, cv2.MORPH_OPEN,
+                             cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))).astype(bool)
+    if followed is not None and followed.any():
+        found &= ~cv2.dilate(followed.astype(np.uint8), _disc(reach)).astype(bool)
+    return found
 
 
-def fold_share(field: np.ndarray) -> float:
+def fold_share(field: np.ndarray, followed: np.ndarray | None = None) -> float:
     """Share of pixels in blobs where the map folds or tears (:func:`fold_blobs`).
 
     Examples
@@ -102,7 +121,7 @@ def fold_share(field: np.ndarray) -> float:
     >>> 0.05 < fold_share(f) < 0.1, fold_share(np.zeros((40, 40, 2)))
     (True, 0.0)
     """
-    return float(fold_blobs(field).mean())
+    return float(fold_blobs(field, followed).mean())
 
 
 def fill_hull(out: np.ndarray, piece: np.ndarray, value: int = 1) -> None:
@@ -115,7 +134,7 @@ def fill_hull(out: np.ndarray, piece: np.ndarray, value: int = 1) -> None:
 
 
 def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: float = 0.2,
-                 most: int = 3) -> np.ndarray:
+                 most: int = 3, missed: np.ndarray | None = None) -> np.ndarray:
     """Objects where the flow failed its check on many pixels (bool, shape (h, w)).
 
     A fast-spinning object often does not fold the map: the flow settles on a plausible
@@ -124,7 +143,9 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     the width are joined, and each cluster -- at least ``min_share`` of the frame, with at
     least ``density`` of its pixels failed -- stands for the object as its convex hull, a
     candidate for :func:`unjello.motion.spin.keep_spinning`; the ``most`` largest are
-    returned.
+    returned. With ``missed`` (pixels the flow does not explain, :func:`followed_objects`),
+    a cluster with less than :data:`ISLAND_MISSED` of them is one the flow followed (its
+    failures are occlusions: a near object's edges) and is left out.
 
     Examples
     --------
@@ -144,7 +165,8 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     big.sort(key=lambda i: -stats[i, cv2.CC_STAT_AREA])
     for i in big[:most]:
         blob = labels == i
-        if unreliable[blob].mean() >= density:
+        if unreliable[blob].mean() >= density and (
+                missed is None or missed[blob].mean() >= ISLAND_MISSED):
             fill_hull(out, blob)
     return out.astype(bool)
 
@@ -152,7 +174,8 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                changing: np.ndarray | None = None, islands_only: bool = False,
                carried: np.ndarray | None = None, from_folds: bool = True,
-               reach: int = 24, feather: float = 12.0, passes: int = 3
+               followed: np.ndarray | None = None, reach: int = REACH,
+               feather: float = 12.0, passes: int = 3
                ) -> tuple[np.ndarray, float, float, np.ndarray]:
     """Give the places where the map folds or tears in blobs the motion around them.
 
@@ -185,6 +208,9 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         from one side).
     from_folds : bool
         Whether the blobs of folds seed at all (False: only ``carried`` islands).
+    followed : ndarray of bool, shape (h, w), optional
+        Objects moving on their own that the flow follows (:func:`followed_objects`):
+        blobs of folds within ``reach`` of them neither seed nor count (:func:`fold_blobs`).
     reach, feather : float
         Distance (px) over which failed flow joins a blob's region, and the blend's width.
     passes : int
@@ -197,7 +223,7 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     kept : float
         Share of pixels whose motion changed (by more than 0.01 px).
     folds : float
-        :func:`fold_share` of the returned field.
+        :func:`fold_share` of the returned field (with ``followed``).
     regions : ndarray of bool, shape (h, w)
         The places given their surroundings' motion (every pass's), each an object whose
         motion failed: :func:`unjello.motion.spin.keep_spinning` may fit them a rotation.
@@ -217,7 +243,7 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
         failed = np.isin(labels, np.flatnonzero(bad)) & islands
 
     def blobs(f: np.ndarray) -> np.ndarray:
-        found = fold_blobs(f) if from_folds else np.zeros(f.shape[:2], bool)
+        found = fold_blobs(f, followed, reach) if from_folds else np.zeros(f.shape[:2], bool)
         if islands_only and islands is not None:
             found &= islands
         return found | failed
@@ -282,6 +308,48 @@ def object_islands(changing: np.ndarray | None, reach: int) -> np.ndarray | None
     # A piece that touches the border along more than this share of it is no island.
     wide = np.flatnonzero(contact > _BORDER_CONTACT * ring.size)
     return (labels > 0) & ~np.isin(labels, wide)
+
+
+def followed_objects(changing: np.ndarray | None, missed: np.ndarray, reach: int = REACH
+                     ) -> np.ndarray | None:
+    """Return the objects moving on their own that the flow follows (bool, shape (h, w)).
+
+    What moves on its own (``changing``, :func:`unlike_neighbours`) is either an object
+    the flow cannot follow -- a spinner, whose pixels the flow carries onto grey levels
+    unlike their own (``missed``) in blobs -- or one it follows at a speed of its own: a
+    near object in parallax, a car, whose misses are thin lines along its edges (where it
+    covers what is behind it). The pieces of ``changing`` (closed as in
+    :func:`object_islands`) with less than :data:`ISLAND_MISSED` of their pixels missed
+    are the latter: they keep their own motion.
+
+    Parameters
+    ----------
+    changing : ndarray of bool, shape (h, w), or None
+        Pixels unlike both neighbours under the camera's motion.
+    missed : ndarray of bool, shape (h, w)
+        Pixels the flow to every neighbour carries onto unlike grey levels, opened (blobs
+        only): :func:`unjello.motion.flow.misses`.
+    reach : int
+        As in :func:`keep_whole`.
+
+    Examples
+    --------
+    >>> changing = np.zeros((60, 80), bool); changing[10:30, 10:30] = changing[10:50, 50:60] = True
+    >>> missed = np.zeros((60, 80), bool); missed[12:28, 12:28] = True  # the first fails
+    >>> followed = followed_objects(changing, missed, 8)
+    >>> bool(followed[20, 20]), bool(followed[30, 55])
+    (False, True)
+    """
+    if changing is None:
+        return None
+    closed = cv2.morphologyEx(changing.astype(np.uint8), cv2.MORPH_CLOSE,
+                              _disc(max(1, reach // 2)))
+    count, labels = cv2.connectedComponents(closed)
+    share = (np.bincount(labels[missed], minlength=count)
+             / np.maximum(np.bincount(labels.ravel(), minlength=count), 1))
+    keep = share < ISLAND_MISSED
+    keep[0] = False
+    return keep[labels]
 
 
 def _touching(mask: np.ndarray, seeds: np.ndarray) -> np.ndarray:

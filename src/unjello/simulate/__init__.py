@@ -18,7 +18,8 @@ content of source frame ``n`` is used for every scanline of frame ``n``); only t
 camera's own motion is rolling-shutter distorted, and that is what the truth describes.
 
 Scenes: ``planar`` (one depth), ``parallax`` (a disc at half the depth, moving twice
-as far) and ``object`` (a disc moving on its own); with layers the truth is per pixel.
+as far), ``object`` (a disc moving on its own), ``propeller`` and ``wheel`` (spinning),
+``poles`` (flat poles passing in front, 2.2 times as near); with layers the truth is per pixel.
 
 Motions (all return ``D(t)`` in px, ``t`` in frame intervals, for a frame rate ``fps``):
 ``pan`` (constant velocity), ``stop`` (pan, then a sudden stop half way, the paper's

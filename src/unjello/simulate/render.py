@@ -18,7 +18,11 @@ from .motion import Motion
 
 __all__ = ["SCENES", "Layer", "SimulatedFrame", "simulate", "scene_layers"]
 
-SCENES = ("planar", "parallax", "object", "propeller", "wheel")
+SCENES = ("planar", "parallax", "object", "propeller", "wheel", "poles")
+
+#: Colours of the ``poles`` scene's poles (RGB), in turn.
+_POLE_COLOURS = ((200, 40, 30), (240, 220, 60), (30, 60, 160), (250, 250, 250), (40, 40, 40),
+                 (60, 160, 60))
 
 
 @dataclass(frozen=True)
@@ -67,7 +71,8 @@ class Layer:
 
 
 def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np.ndarray],
-                 size: tuple[int, int]) -> list[Layer]:
+                 size: tuple[int, int], travel: tuple[float, float] = (0.0, 0.0)
+                 ) -> list[Layer]:
     """Foreground layers of the built-in scenes, in top-bottom orientation.
 
     Parameters
@@ -79,12 +84,18 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
         ``propeller``: three textured blades spinning at 6 rev/s (at 30 fps) about the
         frame's centre, carried with the camera (a drone's own propeller, say).
         ``wheel``: a textured disc with five spokes' cut-outs spinning at 4 rev/s.
+        ``poles``: flat-coloured vertical poles over the whole height, 2.2-4.7 % of the
+        width wide and 19-41 % apart (14-30 px and 120-260 px at 640), 2.2 times as near
+        as the background (parallax: they move 2.2x), placed so that they pass through
+        the frame over the camera's ``travel``.
     image : ndarray
         Texture source for the layer (a different image from the background is best).
     camera : callable
         The camera's (background) motion ``D(t)``.
     size : tuple of int
         ``(width, height)`` of the output frame (top-bottom orientation).
+    travel : tuple of float
+        The least and greatest horizontal displacement of the camera over the clip (px).
 
     Returns
     -------
@@ -93,6 +104,8 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
     if kind == "planar":
         return []
     w, h = size
+    if kind == "poles":
+        return _poles(camera, size, travel)
     r = int(min(w, h) * 0.3)
     tex = cv2.resize(image, (2 * r, 2 * r), interpolation=cv2.INTER_AREA)
     yy, xx = np.mgrid[0:2 * r, 0:2 * r]
@@ -119,6 +132,24 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
         alpha = cv2.GaussianBlur(shape, (0, 0), 0.7)
         return [Layer(tex, alpha, pos, camera, spin=spin)]
     raise SettingsError(f"unknown scene {kind!r}; use one of {', '.join(SCENES)}")
+
+
+def _poles(camera: Callable[[np.ndarray], np.ndarray], size: tuple[int, int],
+           travel: tuple[float, float]) -> list[Layer]:
+    """Return the ``poles`` scene of :func:`scene_layers` (a fixed pseudo-random layout)."""
+    w, h = size
+    rng = np.random.default_rng(3)
+    poles = []
+    x = -2.2 * travel[1] - 0.2 * w
+    while x < w + 0.2 * w - 2.2 * travel[0]:
+        width = int(round(w * rng.uniform(14, 30) / 640))
+        image = np.empty((h + 40, width + 2, 3), np.float32)
+        image[:] = _POLE_COLOURS[len(poles) % len(_POLE_COLOURS)]
+        alpha = np.zeros((h + 40, width + 2), np.float32)
+        alpha[:, 1:-1] = 1.0
+        poles.append(Layer(image, alpha, (x, -20.0), lambda t: 2.2 * camera(t)))
+        x += w * rng.uniform(120, 260) / 640
+    return poles
 
 
 @dataclass(frozen=True)
@@ -214,7 +245,7 @@ def simulate(
         Exposure time in frame intervals (motion blur), 0 for none.
     frame_starts : ndarray of shape (n_frames,), optional
         Start time of each frame (variable frame rate); default ``0, 1, 2, ...``.
-    layers : {'planar', 'parallax', 'object'} or list of Layer
+    layers : {'planar', 'parallax', 'object', 'propeller', 'wheel', 'poles'} or list of Layer
         Foreground layers (see :func:`scene_layers`); with layers the truth carries a
         per-pixel displacement ``field``.
     layer_image : ndarray, optional
@@ -260,7 +291,7 @@ def simulate(
     if isinstance(layers, str):
         tex = layer_image if layer_image is not None else first[::-1]
         tex = to_top_bottom(tex, timing.direction).astype(np.float32)
-        layer_list = scene_layers(layers, tex, motion, (ow, oh))
+        layer_list = scene_layers(layers, tex, motion, (ow, oh), (dmin[0], dmax[0]))
     else:
         layer_list = list(layers)
     for n in range(n_frames):
