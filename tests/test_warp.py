@@ -209,3 +209,24 @@ def test_undistorting_reads_the_same_in_every_scan_direction(scene):
         out = warper([img], still)[0]
         assert out.shape == img.shape
         assert np.abs(out.astype(int) - expected).max() <= 1, direction
+
+
+def test_neighbour_sources_take_each_row_from_the_neighbour_that_saw_it():
+    """Issue 38: beyond the edge, rows read after the reference come from the previous
+    frame, rows read before it from the next, whatever the order of the flows; and the
+    flow carried past the edge is read a few pixels in (the border's is DIS's least
+    sure)."""
+    h, w = 40, 60
+    mx = np.tile(np.arange(w, dtype=np.float32) - 4, (h, 1))  # 4 columns beyond the left
+    my = np.tile(np.arange(h, dtype=np.float32)[:, None], (1, w))
+    prev = np.zeros((h, w, 2), np.float32)
+    prev[..., 0] = 6.0
+    nxt = prev.copy()
+    nxt[..., 0] = 9.0
+    nxt[:, :2, 0] = -30.0  # the border's own flow: a guess, lands outside
+    parts = neighbour_sources((mx, my), [nxt, prev], offsets=[1, -1],
+                              reference_row=(h - 1) / 2)
+    rows = {k: set(ys.tolist()) for k, ys, _, _, _ in parts if ys.size}
+    assert rows[0] == set(range(20)) and rows[1] == set(range(20, h))
+    for k, _, xs, nx, _ in parts:
+        assert np.allclose(nx - (xs - 4), (9.0, 6.0)[k])

@@ -12,7 +12,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["neighbour_sources", "fill_from_neighbours"]
+__all__ = ["neighbour_sources", "fill_from_neighbours", "INSET"]
+
+#: Pixels of the flow's grid between the frame's border and where the flow carried past
+#: it is read (:func:`neighbour_sources`).
+INSET = 3.0
 
 
 def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -29,7 +33,8 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
-                      coarse: tuple[np.ndarray, np.ndarray] | None = None
+                      coarse: tuple[np.ndarray, np.ndarray] | None = None,
+                      offsets: list[int] | None = None, reference_row: float | None = None
                       ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Where to take the output pixels whose source lies outside the frame.
 
@@ -49,6 +54,13 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
         The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
         only pixels near a coarse sample that leaves the frame can leave it, so the
         full-resolution test is limited to those.
+    offsets, reference_row : list of int, float, optional
+        Each flow's neighbour (-1: the previous frame, 1: the next) and the reference
+        scanline (plane pixels, top-bottom). What the reference instant shows beyond the
+        edge of a row read after it, the previous frame saw; of one read before it, the
+        next (the frame's own flow to the other may land inside on what entered the
+        frame, matched to nothing): each pixel tries that neighbour first. Without them,
+        the flows in their order.
 
     Returns
     -------
@@ -77,12 +89,29 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
     if coarse is not None:
         out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
         xs, ys, sx, sy = xs[out], ys[out], sx[out], sy[out]
+    order = list(range(len(flows)))
+    if offsets is not None and reference_row is not None and len(flows) > 1:
+        late = sy >= reference_row  # read after the reference: the previous frame first
+        parts = []
+        for first, later in ((late, 1), (~late, -1)):  # the neighbour tried last
+            take = sorted(order, key=lambda k: offsets[k] == later)
+            parts += _follow([flows[k] for k in take], take, ys[first], xs[first],
+                             sx[first], sy[first], h, w)
+        return parts
+    return _follow(flows, order, ys, xs, sx, sy, h, w)
+
+
+def _follow(flows: list[np.ndarray], which: list[int], ys: np.ndarray, xs: np.ndarray,
+            sx: np.ndarray, sy: np.ndarray, h: int, w: int) -> list:
+    """Follow the points ``(sx, sy)`` into each flow's neighbour in turn (see above)."""
     parts = []
-    for k, flow in enumerate(flows):
+    for k, flow in zip(which, flows, strict=True):
         if not ys.size:
             break
         hf, wf = flow.shape[:2]
-        f = _sample(flow, (sx + 0.5) * (wf / w) - 0.5, (sy + 0.5) * (hf / h) - 0.5)
+        # Past the edge, the flow a few pixels in: the border's own is DIS's least sure.
+        f = _sample(flow, np.clip((sx + 0.5) * (wf / w) - 0.5, INSET, wf - 1 - INSET),
+                    np.clip((sy + 0.5) * (hf / h) - 0.5, INSET, hf - 1 - INSET))
         nx = sx + f[:, 0] * (w / wf)
         ny = sy + f[:, 1] * (h / hf)
         ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)

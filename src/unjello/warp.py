@@ -464,6 +464,7 @@ class PictureWarper:
     def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest",
                  undistort: Lens | None = None) -> None:
         self.direction = timing.direction
+        self.timing = timing
         self.warp, self.fill = warp, fill
         self.undistort = undistort
         self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
@@ -493,13 +494,13 @@ class PictureWarper:
         h, w = to_top_bottom(planes[0], d).shape[:2]
         maps = frame_maps(motion, h, w)[0] if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
-        sources: list[tuple[list[np.ndarray], np.ndarray]] = []
+        sources: list[tuple[int, list[np.ndarray], np.ndarray]] = []
         parts: dict[tuple[int, int], list] = {}
         if around and fill == "nearest":
             for k, flow in motion.neighbours:
                 pic = around.get(k)
                 if pic is not None:
-                    sources.append((pic, flow))
+                    sources.append((k, pic, flow))
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
@@ -522,10 +523,11 @@ class PictureWarper:
                 if maps is not None and sources:
                     if (ph, pw) not in parts:
                         parts[(ph, pw)] = neighbour_sources(
-                            sized[(ph, pw)], [flow for _, flow in sources],
-                            maps if self.undistort is None else None)
+                            sized[(ph, pw)], [flow for _, _, flow in sources],
+                            maps if self.undistort is None else None,
+                            [k for k, _, _ in sources], self.timing.reference_row(ph))
                     res = fill_from_neighbours(
-                        res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for pic, _ in sources])
+                        res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for _, pic, _ in sources])
             out.append(from_top_bottom(res, d))
         return out
 

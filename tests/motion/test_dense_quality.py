@@ -66,6 +66,22 @@ def test_poles_in_parallax_keep_their_own_motion(scene):
     assert not any(f.kept or f.spun or "folds" in f.note for f in traj.frames)
 
 
+def test_the_strip_beyond_the_edge_comes_from_the_frame_that_saw_it():
+    """Issue 38: a pan of a quarter of the width a frame (320x180, readout 0.4): what the
+    reference instant shows beyond the edge of the rows read before it, the next frame
+    saw. Measured (benchmarks/edges.py): that strip 15.19 -> 27.35 dB in a 10-frame clip
+    (the input 14.53), 12.04 -> 29.41 dB in a pair, from the next frame's flow inverted
+    to the right fixed point and read a few pixels in from the border; the strip the
+    previous frame saw 51.76 / 38.59 dB as before; the interior 38.20 -> 41.81 dB."""
+    from benchmarks.edges import run
+
+    clip = run("astronaut", 0.25, 0.4, 10, (320, 180), near=1.0)
+    assert clip["out_next"] > 25.0 and clip["out_prev"] > 45.0, clip
+    assert clip["out_interior"] > 40.0, clip
+    pair = run("astronaut", 0.25, 0.4, 2, (320, 180), near=1.0)
+    assert pair["out_next"] > 25.0 and pair["out_prev"] > 35.0, pair
+
+
 @pytest.mark.slow
 def test_moving_object_leaves_background_intact(scene):
     # Measured: background 0.002 px without the object, 0.029 px with it (uncorrected

@@ -136,3 +136,22 @@ def test_misses_are_where_the_flow_lands_on_unlike_grey_levels():
     assert found[25:35, 35:45].mean() > 0.8
     assert not found[:10, :72].any()  # followed
     assert not found[:, 77:].any()  # landing outside the frame: not counted
+
+
+def test_an_inverted_flow_at_the_sides_takes_the_fixed_point_the_images_agree_with():
+    """Issue 38: in a fast pan, the other frame's side shows what entered it; its flow
+    there is a guess, and inverting from it settles on that guess (a second fixed
+    point, landing inside). The images tell the two apart."""
+    from unjello.motion.flow import invert_flow
+
+    rng = np.random.default_rng(3)
+    scene = cv2.GaussianBlur(rng.uniform(0, 255, (40, 140)).astype(np.float32), (0, 0), 1.5)
+    a, b = scene[:, 40:120].copy(), scene[:, 20:100].copy()  # b(s) = a(s - 20)
+    flow = np.zeros((40, 80, 2), np.float32)
+    flow[..., 0] = -20.0
+    flow[:, :20, 0] = 6.0  # b's first 20 columns entered: a guess that lands inside a
+    plain = invert_flow(flow)
+    assert not np.allclose(plain[:, 10:14, 0], 20.0)  # the guess's fixed point
+    fixed = invert_flow(flow, images=(a, b))
+    assert np.allclose(fixed[:, :40, 0], 20.0, atol=0.01)  # a(q) = b(q + 20)
+    assert np.allclose(fixed[:, 60:, 0], plain[:, 60:, 0])

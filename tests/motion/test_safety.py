@@ -177,6 +177,8 @@ def test_folds_along_an_object_the_flow_follows_do_not_count():
     # The same object with its pixels missed in blobs: no longer followed.
     missed[20:100, 70:86] = True
     assert not followed_objects(pole, missed).any()
-    # Failed flow on it: a candidate spinner only where the flow does not explain it.
-    assert failed_blobs(pole, missed=missed).any()
-    assert not failed_blobs(pole, missed=np.zeros((h, w), bool)).any()
+    # Failed flow beside a followed object: a candidate spinner only where the flow
+    # does not explain it.
+    assert failed_blobs(pole, followed=followed, missed=missed).any()
+    assert not failed_blobs(pole, followed=followed, missed=np.zeros((h, w), bool)).any()
+    assert failed_blobs(pole).any()

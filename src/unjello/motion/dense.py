@@ -40,7 +40,6 @@ import dataclasses
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -49,6 +48,7 @@ from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
 from .dense_config import DenseConfig
+from .dense_safety import FOLD_WARNING, DenseFrame, SafeField
 from .field import (
     advected_velocity,
     at_reference,
@@ -61,37 +61,13 @@ from .flow import (
     flow_pair,
     half_row_flows,
     landing,
-    misses,
     optical_flow,
     row_flows,
 )
-from .safety import (
-    failed_blobs,
-    fold_blobs,
-    fold_share,
-    followed_objects,
-    keep_whole,
-    unlike_neighbours,
-)
-from .spin import keep_spinning
 from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
-#: A frame whose map folds or tears in blobs over more than this share of its pixels is
-#: reported: the real spinners clip's torn frames show 0.2-0.6 %, the research pairs at
-#: most 0.15 %, the Carla town sequence 0.03 % (``docs/measurements.md``).
-FOLD_WARNING = 0.002
-
-#: A frame whose map folds in blobs over more than ``KEEP_WHOLE`` of its pixels has them
-#: given the motion around them, with the whole object they are in
-#: (:func:`~unjello.motion.safety.keep_whole`); above ``KEEP_ISLAND`` only those inside
-#: an object that moves on its own within the frame (an island). Measured: the spinners'
-#: frames fold 0.03-0.58 %, the research pairs' at most 0.15 %; keeping every fold above
-#: 0.05 % whole cost the pairs 0.9 dB, islands above 0.1 % their first frames 0.09 dB
-#: (their highest folds 0.147 %; the spinners' frame 4, torn, 0.18 %: a narrow gap)
-#: (``docs/measurements.md``).
-KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
@@ -101,24 +77,7 @@ def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
     return flow, landing(flow)[2]
 
 
-@dataclass
-class _Frame:
-    index: int
-    start: float
-    image: np.ndarray
-    bwd: np.ndarray | None = None  # flow to the previous frame
-    fwd: np.ndarray | None = None  # flow to the next frame
-    bwd_ok: np.ndarray | None = None
-    fwd_ok: np.ndarray | None = None
-    settings: FlowSettings | None = None  # of the flow to the previous frame
-
-    @property
-    def contrast(self) -> float:
-        """Standard deviation of the grey levels (a fade from black starts near 0)."""
-        return float(cv2.meanStdDev(self.image)[1][0, 0])
-
-
-class DenseMethod:
+class DenseMethod(SafeField):
     """Streaming dense method: returns each frame's motion ``window`` frames later.
 
     Parameters
@@ -143,7 +102,7 @@ class DenseMethod:
         self.timing = timing
         self.config = config
         self._flows = flows  # flows do not depend on the readout: kept by the caller
-        self._frames: deque[_Frame] = deque()
+        self._frames: deque[DenseFrame] = deque()
         self._equations: deque[tuple[int, tuple]] = deque()  # (frame, its pair's rows)
         if config.vibration == "on":
             self.config = config.vibrating()
@@ -155,7 +114,7 @@ class DenseMethod:
         self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
         self._count = 0  # frames pushed
         self._measured = 0  # frames whose flow to the previous frame is taken
-        self._pending: deque[tuple[_Frame, _Frame, Future | tuple]] = deque()
+        self._pending: deque[tuple[DenseFrame, DenseFrame, Future | tuple]] = deque()
         self._executor = executor
         self._ahead = 0 if executor is None else max(1, ahead)
         self._next_out = 0
@@ -177,7 +136,7 @@ class DenseMethod:
         if ww and img.shape[1] > ww:
             size = (ww, max(8, round(img.shape[0] * ww / img.shape[1])))
             img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
-        cur = _Frame(self._count, float(start), img.astype(np.float32))
+        cur = DenseFrame(self._count, float(start), img.astype(np.float32))
         self._count += 1
         if self._frames:
             self._pending.append((self._frames[-1], cur, self._measure(self._frames[-1], cur)))
@@ -197,7 +156,7 @@ class DenseMethod:
         self._take_flows(keep=0)
         return self._ready(final=True)
 
-    def _measure(self, prev: _Frame, cur: _Frame) -> Future | tuple:
+    def _measure(self, prev: DenseFrame, cur: DenseFrame) -> Future | tuple:
         """Start (on the executor, if any) or look up the flows between two frames."""
         args: tuple
         if not self.config.per_pixel:  # rows only: one flow, its row summary rejects outliers
@@ -254,13 +213,13 @@ class DenseMethod:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
 
-    def _keep_flows(self, prev: _Frame, cur: _Frame, job: tuple) -> None:
+    def _keep_flows(self, prev: DenseFrame, cur: DenseFrame, job: tuple) -> None:
         """Keep a pair's measured flows for the caller's other methods (if it keeps them)."""
         if self._flows is not None:
             self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
                          cur.settings)] = job
 
-    def _row_equations(self, prev: _Frame, cur: _Frame) -> tuple:
+    def _row_equations(self, prev: DenseFrame, cur: DenseFrame) -> tuple:
         """Row flows of ``cur`` -> equations ``c(t_a) - c(t_b) + u(y)(t_a - t_b) = delta``."""
         assert cur.bwd is not None and cur.bwd_ok is not None
         h = cur.image.shape[0]
@@ -374,7 +333,7 @@ class DenseMethod:
         return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness,
                                        freqs=self._freqs[1])
 
-    def _emit(self, fr: _Frame, pairs: tuple[int, int]) -> FrameMotion:
+    def _emit(self, fr: DenseFrame, pairs: tuple[int, int]) -> FrameMotion:
         """Frame ``fr``'s motion from the camera solve over ``pairs`` and its own flows."""
         h, w = fr.image.shape
         t_rows = self.timing.row_times(h, fr.start)
@@ -447,133 +406,7 @@ class DenseMethod:
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
                            spun=spun, field=field, front=fronts, neighbours=neighbours)
 
-    def _safe_field(self, fr: _Frame, field: np.ndarray, cam_disp: np.ndarray,
-                    fallback: np.ndarray, entering: np.ndarray, t_ref: float,
-                    c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
-                    ) -> tuple[np.ndarray, float, float, float, str, tuple[np.ndarray, ...]]:
-        """Make the per-pixel field safe: no fold or tear it can avoid.
-
-        Where the field folds in blobs, the region gets the motion around it
-        (:func:`~unjello.motion.safety.keep_whole`, if that folds less); such regions and
-        the objects whose flow failed (:func:`~unjello.motion.safety.failed_blobs`) are
-        tried as spinning objects (:meth:`_turn_back_spinning`). Returns the field, its
-        folds, the share kept whole, the share spun, what to say and the spinning
-        objects' layers in front of the field.
-        """
-        h, w = field.shape[:2]
-        notes = []
-        folds, kept = fold_share(field), 0.0
-        regions = np.zeros((h, w), bool)
-        carried, self._kept = self._kept, None
-        missed = changing = followed = None
-        if folds > KEEP_ISLAND or carried is not None:
-            # Folds along an object that moves on its own and that the flow follows do
-            # not count: they are where it covers what is behind it (parallax).
-            missed, changing = self._missed(fr), self._changing(fr, c_at)
-            followed = followed_objects(changing, missed)
-            if followed is not None:
-                changing &= ~followed
-                folds = fold_share(field, followed)
-        if folds > KEEP_ISLAND or carried is not None:
-            # A frame that folds, or one after a frame that kept objects whole: an object
-            # whose flow failed then and fails now is kept whole again (a spinning
-            # object keeps spinning), even where this frame's map barely folds. One the
-            # flow follows keeps its own motion.
-            whole, share, after, regions = keep_whole(
-                field, cam_disp, fallback,
-                changing=changing, islands_only=folds <= KEEP_WHOLE, carried=carried,
-                from_folds=folds > KEEP_ISLAND, followed=followed)
-            if share > 0 and (after < folds or (carried is not None and after <= folds)):
-                folds_before = folds
-                field, folds, kept = whole, after, share
-                self._kept = regions
-                why = ("the per-pixel motion folded or tore" if folds_before > KEEP_ISLAND
-                       else "its object's motion failed in the frame before too")
-                notes.append(f"{100 * kept:.0f}% given the motion around it ({why})")
-            else:
-                regions = np.zeros((h, w), bool)
-        failed = fallback & ~entering
-        if failed.any():
-            if missed is None:
-                missed = self._missed(fr)
-            regions |= failed_blobs(failed, missed=missed)
-        field, folds, spun, said, fronts = self._turn_back_spinning(
-            fr, field, folds, regions, t_ref, c_at, u_mean, followed)
-        notes.append(said)
-        if folds > FOLD_WARNING:
-            notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
-        return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts
-
-    def _missed(self, fr: _Frame) -> np.ndarray:
-        """Pixels the flow to every neighbour carries onto unlike grey levels, in blobs.
-
-        :func:`~unjello.motion.flow.misses` on each side, both at once, opened by a 7 px
-        disc: the thin lines along a near object's edges (occlusions, seen from one
-        side) go, the blobs of a flow that failed on a spinner stay.
-        """
-        near = {f.index: f for f in self._frames}
-        sides = [misses(near[fr.index + k].image, fr.image, flow)
-                 for k, flow in ((-1, fr.bwd), (1, fr.fwd))
-                 if flow is not None and fr.index + k in near]
-        if not sides:
-            return np.zeros(fr.image.shape, bool)
-        both = np.logical_and.reduce(sides).astype(np.uint8)
-        return cv2.morphologyEx(both, cv2.MORPH_OPEN, cv2.getStructuringElement(
-            cv2.MORPH_ELLIPSE, (7, 7))).astype(bool)
-
-    def _changing(self, fr: _Frame, c_at: Callable[[np.ndarray], np.ndarray]
-                  ) -> np.ndarray | None:
-        """Pixels unlike both neighbours brought over by the camera (:func:`unlike_neighbours`)."""
-        t_rows = self.timing.row_times(fr.image.shape[0], fr.start) - fr.start
-        others = [(f.image, f.start - fr.start) for f in self._frames
-                  if abs(f.index - fr.index) == 1]
-        return unlike_neighbours(fr.image, others, c_at, t_rows)
-
-    def _turn_back_spinning(self, fr: _Frame, field: np.ndarray, folds: float,
-                            regions: np.ndarray, t_ref: float,
-                            c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray,
-                            followed: np.ndarray | None
-                            ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...]]:
-        """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
-
-        With a neighbour on each side, or one and last frame's rotations to check against
-        (one side alone tells a rotation's aliases apart too poorly), and only if the map
-        then folds nowhere else. Returns the field, its folds
-        (along the spinning objects' edges, occlusion boundaries, and along the
-        ``followed`` objects, not counted), the share
-        spun, a note and the rotations' layers in front of the field.
-        """
-        others = [(f.image, f.start - fr.start) for f in self._frames
-                  if abs(f.index - fr.index) == 1]
-        if not regions.any() or not others or (len(others) < 2 and not self._spins):
-            self._spins = []
-            return field, folds, 0.0, "", ()
-
-        def track(t: np.ndarray) -> np.ndarray:
-            """Return what carries an object: the camera's path plus the row velocity."""
-            return c_at(t) + np.asarray(t)[..., None] * u_mean
-
-        # Last frame's rotations, carried to this frame's reference time.
-        hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
-                 for c, om, t in self._spins]
-        spinning, spins, weight, fitted, fronts = keep_spinning(
-            field, fr.image, others, regions, track, t_ref, self.timing.readout, hints=hints)
-        self._spins = [(s.centre, s.omega, fr.start + t_ref) for s in fitted]
-        if not spins:
-            return field, folds, 0.0, "", ()
-        spun_px = (weight > 0.5).astype(np.uint8)
-        k = np.ones((7, 7), np.uint8)
-        edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
-        after = float((fold_blobs(spinning, followed) & ~edges).mean())
-        if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
-            return field, folds, 0.0, "", ()
-        spun = float(spun_px.mean())
-        turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
-        return spinning, after, spun, (
-            f"{len(spins)} spinning object(s) turned back by a rotation fitted per scanline "
-            f"({turns} turns per frame, {100 * spun:.0f}% of the picture)"), fronts
-
-    def _residual(self, fr: _Frame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
+    def _residual(self, fr: DenseFrame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each pixel's motion beyond the camera's, carried to the reference time.

@@ -40,10 +40,10 @@ _BORDER_CONTACT = 0.08
 
 #: An object that moves on its own is one the flow cannot follow (a spinner) only where
 #: the flow carries at least this share of its pixels, in blobs, onto grey levels
-#: unlike their own on every side (``missed`` of :func:`followed_objects` and
-#: :func:`failed_blobs`). Measured: the real spinners' objects 0.08-0.57 (with both
-#: neighbours 0.08-0.35); poles passing in front of a pan at 2.2 times its speed (parallax) at most
-#: 0.016 with both neighbours, 0.02-0.41 with one (``docs/measurements.md``).
+#: unlike their own on every side (``missed`` of :func:`followed_objects`). Measured: the
+#: real spinners' objects 0.08-0.57 (with both neighbours 0.08-0.35); poles passing in
+#: front of a pan at 2.2 times its speed (parallax) at most 0.016 with both neighbours,
+#: 0.02-0.41 with one (``docs/measurements.md``).
 ISLAND_MISSED = 0.05
 
 #: Distance (px, at the working resolution) over which failed flow joins a blob's region
@@ -134,7 +134,8 @@ def fill_hull(out: np.ndarray, piece: np.ndarray, value: int = 1) -> None:
 
 
 def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: float = 0.2,
-                 most: int = 3, missed: np.ndarray | None = None) -> np.ndarray:
+                 most: int = 3, followed: np.ndarray | None = None,
+                 missed: np.ndarray | None = None) -> np.ndarray:
     """Objects where the flow failed its check on many pixels (bool, shape (h, w)).
 
     A fast-spinning object often does not fold the map: the flow settles on a plausible
@@ -143,9 +144,10 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     the width are joined, and each cluster -- at least ``min_share`` of the frame, with at
     least ``density`` of its pixels failed -- stands for the object as its convex hull, a
     candidate for :func:`unjello.motion.spin.keep_spinning`; the ``most`` largest are
-    returned. With ``missed`` (pixels the flow does not explain, :func:`followed_objects`),
-    a cluster with less than :data:`ISLAND_MISSED` of them is one the flow followed (its
-    failures are occlusions: a near object's edges) and is left out.
+    returned. A cluster beside an object the flow follows (within :data:`REACH` px of
+    ``followed``, :func:`followed_objects`) whose pixels the flow explains (less than
+    :data:`ISLAND_MISSED` of them ``missed``) is left out: its failures are occlusions,
+    the near object's edges.
 
     Examples
     --------
@@ -163,10 +165,13 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     out = np.zeros((h, w), np.uint8)
     big = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= min_share * h * w]
     big.sort(key=lambda i: -stats[i, cv2.CC_STAT_AREA])
+    beside = None if followed is None or missed is None else cv2.dilate(
+        followed.astype(np.uint8), _disc(REACH)).astype(bool)
     for i in big[:most]:
         blob = labels == i
         if unreliable[blob].mean() >= density and (
-                missed is None or missed[blob].mean() >= ISLAND_MISSED):
+                beside is None or missed is None or not beside[blob].any()
+                or missed[blob].mean() >= ISLAND_MISSED):
             fill_hull(out, blob)
     return out.astype(bool)
 

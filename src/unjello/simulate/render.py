@@ -105,7 +105,7 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
         return []
     w, h = size
     if kind == "poles":
-        return _poles(camera, size, travel)
+        return pole_layers(camera, size, travel)
     r = int(min(w, h) * 0.3)
     tex = cv2.resize(image, (2 * r, 2 * r), interpolation=cv2.INTER_AREA)
     yy, xx = np.mgrid[0:2 * r, 0:2 * r]
@@ -134,20 +134,24 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
     raise SettingsError(f"unknown scene {kind!r}; use one of {', '.join(SCENES)}")
 
 
-def _poles(camera: Callable[[np.ndarray], np.ndarray], size: tuple[int, int],
-           travel: tuple[float, float]) -> list[Layer]:
-    """Return the ``poles`` scene of :func:`scene_layers` (a fixed pseudo-random layout)."""
+def pole_layers(camera: Callable[[np.ndarray], np.ndarray], size: tuple[int, int],
+                travel: tuple[float, float], nearer: float = 2.2) -> list[Layer]:
+    """Return flat-coloured vertical poles passing in front: the ``poles`` scene.
+
+    A fixed pseudo-random layout (:func:`scene_layers`), the poles ``nearer`` times as
+    near as the background: they move ``nearer`` times the camera's displacement.
+    """
     w, h = size
     rng = np.random.default_rng(3)
-    poles = []
-    x = -2.2 * travel[1] - 0.2 * w
-    while x < w + 0.2 * w - 2.2 * travel[0]:
+    poles: list[Layer] = []
+    x = -nearer * travel[1] - 0.2 * w
+    while x < w + 0.2 * w - nearer * travel[0]:
         width = int(round(w * rng.uniform(14, 30) / 640))
         image = np.empty((h + 40, width + 2, 3), np.float32)
         image[:] = _POLE_COLOURS[len(poles) % len(_POLE_COLOURS)]
         alpha = np.zeros((h + 40, width + 2), np.float32)
         alpha[:, 1:-1] = 1.0
-        poles.append(Layer(image, alpha, (x, -20.0), lambda t: 2.2 * camera(t)))
+        poles.append(Layer(image, alpha, (x, -20.0), lambda t: nearer * camera(t)))
         x += w * rng.uniform(120, 260) / 640
     return poles
 
