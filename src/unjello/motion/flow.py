@@ -262,9 +262,10 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
     It starts from ``-F(q)``. Where the camera moves fast that is a guess at ``a``'s
     sides: ``b`` shows there what entered the frame, matched to nothing, while ``a``'s
     content sits a pan's width further in ``b``; the iteration may then settle on the
-    guess and leave the frame. Near the sides, where it leaves the frame, it starts
-    again from the row's dominant flow (the median of its middle), which is kept where
-    it lands inside and returns (within :data:`_INVERSE_MISS` px). Where both land
+    guess and leave the frame. Near the sides (as far in as the motion, and 8 px), where
+    it leaves the frame, it starts again from the row's dominant flow (the median of its
+    middle half), which is kept where it lands inside and returns (within
+    :data:`_INVERSE_MISS` px). Where both land
     inside (two fixed points: the flow alone cannot tell which is right), the one that
     carries ``a``'s grey levels onto like ones in ``b`` wins, given the ``images``.
 
@@ -300,8 +301,10 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
         return inv
 
     inv = iterate(-flow, gx, gy)
-    side = max(1, w // 4)
-    dominant = -np.median(flow[:, side:w - side:max(1, (w - 2 * side) // 80)], axis=1)
+    quarter = max(1, w // 4)
+    dominant = -np.median(flow[:, quarter:w - quarter:max(1, (w - 2 * quarter) // 80)], axis=1)
+    # What entered the other frame is as wide as the motion: the sides that far (and 8 px).
+    side = int(min(quarter, 8 + np.abs(dominant[:, 0]).max()))
     for cols in (slice(0, side), slice(w - side, w)):
         xs, ys = np.ascontiguousarray(gx[:, cols]), np.ascontiguousarray(gy[:, cols])
         _, out = _inverse_miss(flow, inv[:, cols], xs, ys)
