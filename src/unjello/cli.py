@@ -24,6 +24,7 @@ import numpy as np
 from click.core import ParameterSource
 
 from . import __version__
+from .cli_gyroflow import export_gyroflow
 from .cli_readout import cameras, estimate_readout, readout
 from .config import OPTIONS, PRESETS, CorrectionConfig
 from .errors import SettingsError, UnjelloError
@@ -166,6 +167,10 @@ def cli() -> None:
               help="Also write a side-by-side video: input left, corrected right.")
 @click.option("--stmap", type=click.Path(path_type=Path),
               help="Folder for per-frame 16-bit STMap PNGs (Nuke, Resolve/Fusion, AE).")
+@click.option("--gyroflow-out", type=click.Path(path_type=Path),
+              help="Also write the motion as a Gyroflow project, NAME.gyroflow, with its "
+              "log NAME.gcsv beside it: the Resolve, After Effects and Premiere plugins "
+              "correct the original clip from them.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON summary line on stdout.")
 @click.option("--segments", help="Correct a long video in this many segments (cut at "
@@ -181,7 +186,8 @@ def cli() -> None:
 @click.option("-y", "--overwrite", is_flag=True, help="Replace an existing output.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def correct(input: Path, output: Path, preset: str | None, motion_out: Path | None,
-            motion_in: Path | None, preview: Path | None, stmap: Path | None, as_json: bool,
+            motion_in: Path | None, preview: Path | None, stmap: Path | None,
+            gyroflow_out: Path | None, as_json: bool,
             segments: str | None, executor_kind: str | None, address: str | None,
             workers: int | None, overwrite: bool, quiet: bool, **options: Any) -> None:
     """Correct INPUT (a video, a folder of frames, or - for a stream on stdin) into OUTPUT."""
@@ -209,7 +215,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
                                      param_hint="--segments")
         taken = [flag for flag, value in (("--motion-out", motion_out),
                                           ("--motion-in", motion_in),
-                                          ("--preview", preview), ("--stmap", stmap))
+                                          ("--preview", preview), ("--stmap", stmap),
+                                          ("--gyroflow-out", gyroflow_out))
                  if value is not None]
         if taken:
             raise SettingsError(f"{', '.join(taken)} cannot be written by a segmented run "
@@ -234,7 +241,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
     with _progress("correcting", quiet or as_json) as progress:
         traj = runner(input, output, config, overwrite=overwrite,
                              motion_out=motion_out, motion_in=motion_in, preview=preview,
-                             stmap=stmap, progress=progress, log=log,
+                             stmap=stmap, gyroflow_out=gyroflow_out, progress=progress,
+                             log=log,
                              on_timing=lambda r: decided.update(
                                  fps=r.fps, sources=dict(r.sources), estimate=r.estimate),
                              on_gyro=lambda g: decided.update(gyro=g))
@@ -253,7 +261,8 @@ def correct(input: Path, output: Path, preset: str | None, motion_out: Path | No
             "gyro": decided["gyro"], "messages": messages}))
     elif not quiet:
         also = [f"{p} ({what})" for p, what in ((preview, "side by side"),
-                                                 (motion_out, "motion"), (stmap, "STMaps"))
+                                                 (motion_out, "motion"), (stmap, "STMaps"),
+                                                 (gyroflow_out, "Gyroflow project"))
                 if p is not None]
         click.echo(f"wrote {output} ({len(traj)} frames, readout {traj.timing.readout:.4g} "
                    f"({decided['sources']['readout']}), "
@@ -495,7 +504,7 @@ def probe(input: Path, as_json: bool) -> None:
                    + ", ".join(f"{v:.3g}" for v in d["lens"]["distortion"]))
 
 
-for _command in (readout, estimate_readout, cameras):
+for _command in (readout, estimate_readout, cameras, export_gyroflow):
     cli.add_command(_command)
 
 

@@ -21,7 +21,8 @@ from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
 from .gyrolog import GyroLog
-from .io.sidecars import LensProfile, gyro_source, read_lens_profile, stated_readout
+from .io.gcsv import is_gcsv, read_gcsv, stated_calibration
+from .io.sidecars import LensProfile, find_gyro_log, gyro_source, read_lens_profile, stated_readout
 from .io.source import FrameSource
 from .io.telemetry import camera_of
 from .io.video import is_pipe, probe, variable_rate
@@ -29,7 +30,8 @@ from .readout import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
 from .trajectory import Trajectory
 
-__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming", "describe", "database_readout"]
+__all__ = ["resolve_clip", "resolve_timing", "ResolvedTiming", "describe", "database_readout",
+           "with_lens"]
 
 
 
@@ -317,11 +319,14 @@ def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
                                                               fps=fps))
     gyro_log, own, report, distrust = None, None, {}, ""
     if gyro or config.undistort:
-        config, lens = _with_lens(config, config.camera or identified,
+        config, lens = with_lens(config, config.camera or identified,
                                   (source.info.width, source.info.height), resolved.fps, profile)
         resolved = dataclasses.replace(resolved, messages=(*resolved.messages, *lens))
     if gyro:
         gyro_log, said, own = gyro_source(src_p, config.gyro)
+        config, stated = _stated_by_log(config, src_p, resolved.timing.direction)
+        if stated:
+            said += f" ({stated})"
         resolved = dataclasses.replace(
             resolved, sources={**resolved.sources, "gyro": said},
             messages=(*resolved.messages, f"gyro: {said}"))
@@ -330,6 +335,27 @@ def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
             distrust = (f"the camera stabilised the picture itself (stabilisation "
                         f"{own.stabilised!r}), so it no longer moves as the gyro says")
     return config, resolved, gyro_log, own, report, distrust
+
+
+def _stated_by_log(config: CorrectionConfig, src: Path, direction: str
+                   ) -> tuple[CorrectionConfig, str]:
+    """Take what a log unjello wrote states (axes, clock, focal), unless it is given."""
+    path = config.gyro.path
+    if not path:
+        try:
+            path = str(find_gyro_log(src))
+        except SettingsError:
+            return config, ""
+    if not is_gcsv(path):
+        return config, ""
+    stated = stated_calibration(read_gcsv(path)[1], direction)
+    g = config.gyro
+    fill = {k: v for k, v in stated.items()
+            if getattr(g, k) is None or getattr(g, k) == "auto"}
+    if not fill:
+        return config, ""
+    return (dataclasses.replace(config, gyro=dataclasses.replace(g, **fill)),  # type: ignore[arg-type]
+            "written by unjello: its " + ", ".join(fill) + " as it states")
 
 
 def database_readout(path: Path) -> str:
@@ -348,7 +374,7 @@ def database_readout(path: Path) -> str:
     return found.describe() if found is not None else vague.removeprefix("warning: ")
 
 
-def _with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, int],
+def with_lens(config: CorrectionConfig, camera: str | None, size: tuple[int, int],
                fps: float, profile: LensProfile | None = None
                ) -> tuple[CorrectionConfig, tuple[str, ...]]:
     """Give the gyro method the lens a profile or the camera database knows.
@@ -420,3 +446,4 @@ def describe(path: Path) -> dict[str, Any]:
             "pix_fmt": info.pix_fmt, "bit_depth": info.bit_depth, "rotation": info.rotation,
             "audio_streams": info.audio_streams, **common,
             "color": {k: (str(v) if v is not None else None) for k, v in info.color.items()}}
+

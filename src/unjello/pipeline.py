@@ -25,6 +25,7 @@ from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
+from .gyroflow import check_project, clip_project
 from .gyrolog import GyroLog
 from .io.codecs import check_output
 from .io.sidecars import read_gyro
@@ -35,6 +36,7 @@ from .lens import Lens
 from .motion.dense import DenseMethod
 from .motion.fallback import GyroOrDense
 from .motion.paper import PaperMethod
+from .motion.replay import Replay
 from .parallel import cores, frame_threads
 from .stabilize import Stabilizer, track, tracking_copy
 from .timing import SensorTiming, to_top_bottom
@@ -118,9 +120,9 @@ class Corrector:
         self.timing = timing
         self.config = config
         self.max_value = max_value
-        self._method: PaperMethod | DenseMethod | GyroOrDense | _Replay
+        self._method: PaperMethod | DenseMethod | GyroOrDense | Replay
         if motion is not None:
-            self._method = _Replay(motion)
+            self._method = Replay(motion)
         elif config.method == "paper":
             self._method = PaperMethod(timing, config.paper)
         elif config.method == "gyro":
@@ -190,7 +192,7 @@ class Corrector:
         """The method that measures the motion (``'dense'`` after a gyro's fallback)."""
         if isinstance(self._method, GyroOrDense):
             return self._method.method
-        return "replay" if isinstance(self._method, _Replay) else self.config.method
+        return "replay" if isinstance(self._method, Replay) else self.config.method
 
     @property
     def vibration(self) -> float | None:
@@ -226,26 +228,6 @@ class Corrector:
             out.append((planes if skip else self.warp(planes, fm, around), fm))
             self._last = planes
         return out
-
-
-class _Replay:
-    """A "method" that hands back the frames of a stored Trajectory, in order."""
-
-    def __init__(self, traj: Trajectory) -> None:
-        self._frames = {f.index: f for f in traj.frames}
-        self._n = 0
-
-    def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
-        fm = self._frames.get(self._n)
-        if fm is None:
-            raise InputError(f"the motion file has no frame {self._n}")
-        if fm.displacement.shape[0] != frame.shape[0]:
-            raise InputError("the motion file was made for frames of another size")
-        self._n += 1
-        return [fm]
-
-    def flush(self) -> list[FrameMotion]:
-        return []
 
 
 def correct_frames(
@@ -321,6 +303,7 @@ def correct_video(
     motion_in: str | os.PathLike | None = None,
     preview: str | os.PathLike | None = None,
     stmap: str | os.PathLike | None = None,
+    gyroflow_out: str | os.PathLike | None = None,
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     on_timing: Callable[[ResolvedTiming], None] | None = None,
@@ -349,6 +332,9 @@ def correct_video(
         Also write a side-by-side video: input left, corrected right.
     stmap : path-like, optional
         Folder receiving one 16-bit STMap PNG per frame (see :mod:`unjello.exports`).
+    gyroflow_out : path-like, optional
+        Also write a Gyroflow project of the clip, ``NAME.gyroflow``, with its log
+        ``NAME.gcsv`` (:func:`unjello.gyroflow.clip_project`), for the editors' plugins.
     progress : callable, optional
         Called as ``progress(done, total)`` after each frame (``total`` may be 0).
     log : callable, optional
@@ -388,6 +374,8 @@ def correct_video(
     side = SideOutputs(motion_out, stmap, preview, config.encode)
     for extra in side.paths:
         check_new(extra, overwrite)
+    if gyroflow_out is not None:
+        check_project(gyroflow_out, is_pipe(src), config.span.whole, overwrite)
     if motion_in is not None and not config.span.whole:
         raise SettingsError("motion_in= replays the motion of a whole clip: leave out start= "
                             "and duration=, or cut the clip first")
@@ -401,7 +389,8 @@ def correct_video(
         if on_timing:
             on_timing(resolved)
         traj = Trajectory(resolved.timing, (source.info.width, source.info.height),
-                          method=given.method if given else config.method)
+                          method=given.method if given else config.method, fps=resolved.fps,
+                          source="" if is_pipe(src) else str(src_p))
         workers = config.threads or cores()
         with frame_threads(workers) as pool:
             corrector = Corrector(resolved.timing, config, max_value=source.info.max_value,
@@ -425,8 +414,11 @@ def correct_video(
             on_gyro(report)
     if log and corrector.pushed == 1:
         log("warning: a single frame has no motion to measure; copied through unchanged")
+    if gyroflow_out is not None:
+        clip_project(traj, gyroflow_out, clip=src_p, config=config, fps=resolved.fps,
+                     rotation=source.reader.info.rotation if source.reader else 0.0,
+                     gyro=corrector.gyro, overwrite=overwrite, log=log)
     return traj
-
 
 
 def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: SideOutputs,

@@ -55,6 +55,7 @@ __all__ = [
     "pixel_grid",
     "to_top_bottom",
     "from_top_bottom",
+    "coded_axes",
 ]
 
 Direction = Literal["top-bottom", "bottom-top", "left-right", "right-left"]
@@ -273,6 +274,22 @@ def to_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:
     else:
         raise SettingsError(f"unknown direction {direction!r}")
     return np.ascontiguousarray(out)
+
+
+def coded_axes(direction: str) -> np.ndarray:
+    """Return ``B`` with ``w_coded = B w_top_bottom`` for angular rates (camera axes).
+
+    :func:`unjello.timing.to_top_bottom` turns the coded frame by ``A`` (point ``q_t = A
+    q_c``, centred pixel coordinates); a rate is a pseudovector, ``w_t = det(A) A w_c``,
+    so ``B = det(A) A^T``.
+    """
+    a = {"top-bottom": np.eye(3),
+         "bottom-top": np.diag([1.0, -1.0, 1.0]),
+         "left-right": np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, 1]]),
+         "right-left": np.array([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]])}.get(direction)
+    if a is None:
+        raise SettingsError(f"unknown direction {direction!r}")
+    return float(np.linalg.det(a)) * a.T
 
 
 def from_top_bottom(image: np.ndarray, direction: str) -> np.ndarray:

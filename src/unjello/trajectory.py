@@ -12,7 +12,8 @@ Methods produce it; the warper, the exports, the metrics and the plots consume i
 
 The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the method, the
 timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
-``height``, coded orientation) and, per frame: ``index``, ``start`` (time of the first
+``height``, coded orientation), the clip's ``fps`` and ``source`` (when known) and, per
+frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
 ``kept`` (share given the motion around it because the per-pixel motion folded or tore
@@ -20,6 +21,7 @@ the picture), ``spun`` (of those, the share given a rotation fitted to a spinnin
 object), ``folds`` (share where the applied map still folds or tears in blobs),
 ``confidence`` (:attr:`FrameMotion.confidence`, written for readers; recomputed on load),
 ``displacement`` and ``velocity`` (``[x, y]`` per scanline, top-bottom orientation),
+``camera`` (dense per-pixel: the camera trajectory's own per-scanline displacement),
 and for dense methods ``field`` (the per-pixel displacement every 8 pixels, ``[row][col]
 [x, y]``) with its full ``field_shape`` ``[h, w]``; when stabilised, ``shift`` ``[x, y]``
 and ``zoom`` (the :class:`Reframe` the warp applied on top of the correction), ``angle``
@@ -140,6 +142,10 @@ class FrameMotion:
         not see from its neighbours (not saved; dropped with ``field``).
     reframe : Reframe
         The stabilisation's shift and zoom, applied in the same warp (identity without).
+    camera : ndarray of shape (h, 2), optional
+        Dense per-pixel method: the camera trajectory's own per-scanline displacement
+        (what ``camera_only`` would apply; ``displacement`` is then the field's per-row
+        median, objects included). None where ``displacement`` is the camera's already.
     """
 
     index: int
@@ -157,6 +163,12 @@ class FrameMotion:
     front: tuple[np.ndarray, ...] = ()
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
     reframe: Reframe = Reframe()
+    camera: np.ndarray | None = None
+
+    @property
+    def camera_displacement(self) -> np.ndarray:
+        """The camera's per-scanline displacement, shape (h, 2) (module notes)."""
+        return self.displacement if self.camera is None else self.camera
 
     @property
     def confidence(self) -> float:
@@ -206,6 +218,8 @@ class FrameMotion:
             "displacement": pack(self.displacement, 1e-4),
             "velocity": pack(self.velocity, 1e-4),
         }
+        if self.camera is not None:
+            d["camera"] = pack(self.camera, 1e-4)
         if not self.reframe.identity:
             d["shift"] = [round(float(v), 4) for v in self.reframe.shift]
             d["zoom"] = round(float(self.reframe.zoom), 6)
@@ -248,6 +262,7 @@ class FrameMotion:
             spun=float(d.get("spun", 0.0)),
             field=field,
             front=front,
+            camera=unpack(d["camera"]).reshape(-1, 2) if d.get("camera") is not None else None,
             reframe=Reframe(tuple(float(v) for v in d.get("shift", (0.0, 0.0))),  # type: ignore[arg-type]
                             float(d.get("zoom", 1.0)), float(d.get("angle", 0.0)),
                             tuple(float(v) for v in d.get("path", (0.0, 0.0, 0.0)))),  # type: ignore[arg-type]
@@ -311,6 +326,10 @@ class Trajectory:
     vibration : float, optional
         The dense method's detected vibration (its wobble, a share of the height) when
         ``vibration='auto'`` switched its window on; None otherwise (not stored in JSON).
+    fps : float, optional
+        Frames per second of the clip (the unit of ``start`` is its frame interval).
+    source : str
+        The clip the motion was measured on, as it was given ('' if unknown).
     """
 
     timing: SensorTiming
@@ -318,6 +337,8 @@ class Trajectory:
     frames: list[FrameMotion] = field(default_factory=list)
     method: str = ""
     vibration: float | None = None
+    fps: float | None = None
+    source: str = ""
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -337,6 +358,8 @@ class Trajectory:
             "reference": self.timing.reference,
             "width": int(self.size[0]),
             "height": int(self.size[1]),
+            **({"fps": float(self.fps)} if self.fps else {}),
+            **({"source": self.source} if self.source else {}),
             "frames": [f.to_dict() for f in self.frames],
         }
 
@@ -353,6 +376,8 @@ class Trajectory:
             size=(int(doc["width"]), int(doc["height"])),
             frames=[FrameMotion.from_dict(f) for f in doc["frames"]],
             method=str(doc.get("method", "")),
+            fps=float(doc["fps"]) if doc.get("fps") else None,
+            source=str(doc.get("source", "")),
         )
 
     def save(self, path: str | os.PathLike) -> None:

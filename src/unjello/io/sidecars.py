@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..gyrolog import GyroConfig, GyroLog
+from .gcsv import is_gcsv, read_gcsv
 from .telemetry import EmbeddedGyro, embedded_gyro, telemetry_available, vendor_call
 
 __all__ = ["StatedReadout", "stated_readout", "LensProfile", "read_lens_profile",
@@ -182,7 +183,7 @@ def read_lens_profile(path: str | os.PathLike) -> LensProfile:
 
 
 def find_gyro_log(src: str | os.PathLike) -> Path:
-    """Return the gyro log beside a clip: ``NAME.gyro.csv`` or ``NAME.gyro.txt``.
+    """Return the gyro log beside a clip: ``NAME.gyro.csv``, ``NAME.gyro.txt`` or ``NAME.gcsv``.
 
     This is how the gyro method finds a clip's log when none is given (and how a batch
     finds each clip's).
@@ -194,7 +195,7 @@ def find_gyro_log(src: str | os.PathLike) -> Path:
     """
     src = Path(src)
     base = src.with_suffix("") if src.is_file() else src
-    for ext in (".gyro.csv", ".gyro.txt"):
+    for ext in (".gyro.csv", ".gyro.txt", ".gcsv"):
         cand = base.with_name(base.name + ext)
         if cand.is_file():
             return cand
@@ -245,7 +246,8 @@ def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> Gyr
     """Read a text or CSV gyro log: one sample per line, a time and three rates.
 
     Columns may be separated by commas, semicolons, tabs or spaces; lines that are not
-    numbers (a header, ``#`` comments) are skipped.
+    numbers (a header, ``#`` comments) are skipped. A Gyroflow ``.gcsv`` log is read by
+    its header (:func:`unjello.io.gcsv.read_gcsv`; ``layout`` and ``units`` are ignored).
 
     Parameters
     ----------
@@ -270,6 +272,8 @@ def read_gyro(path: str | Path, layout: str = "auto", units: str = "rad") -> Gyr
         Not a readable log of four numeric columns.
     """
     p = Path(path)
+    if is_gcsv(p):  # Gyroflow's own format: its header states units and layout
+        return read_gcsv(p)[0]
     try:
         text = p.read_text(errors="replace")
     except OSError as exc:

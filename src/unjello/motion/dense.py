@@ -380,11 +380,11 @@ class DenseMethod(SafeField):
             return np.stack([np.interp(rows_full, np.arange(h), values[:, k])
                              for k in range(2)], axis=1) * scale
 
+        # Eq. 26 per scanline: the camera's displacement plus the row velocity's.
+        camera = to_full_rows(cam_disp + u_rows * (t_rows - t_ref)[:, None])
         if not self.config.per_pixel:
-            # Eq. 26 per scanline: the camera's displacement plus the row velocity's.
-            disp_rows = cam_disp + u_rows * (t_rows - t_ref)[:, None]
-            return FrameMotion(fr.index, fr.start, to_full_rows(disp_rows),
-                               to_full_rows(velocity), ok=True, note=self._note)
+            return FrameMotion(fr.index, fr.start, camera, to_full_rows(velocity), ok=True,
+                               note=self._note)
         field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
                                                          c_at_pixels)
         frac, new = float(fallback.mean()), float(entering.mean())
@@ -404,7 +404,8 @@ class DenseMethod(SafeField):
                            if flow is not None)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
-                           spun=spun, field=field, front=fronts, neighbours=neighbours)
+                           spun=spun, field=field, front=fronts, neighbours=neighbours,
+                           camera=camera)
 
     def _residual(self, fr: DenseFrame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]
