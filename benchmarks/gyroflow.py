@@ -13,7 +13,8 @@
 3. ``../shared/data/sequences/phone_gyro`` (103 frames, 800x600, a real phone's gyro):
    the rates exported from the footage alone (published focal 573.85 px) against the
    phone's own gyro in the camera's axes and on the clip's clock (unjello's gyro
-   calibration of it), both averaged over a frame interval: correlation per axis.
+   calibration of it), both averaged over a frame interval: correlation per axis, from
+   the default run and from ``--camera-only``.
 
 Usage::
 
@@ -81,32 +82,53 @@ def simulated(case: str, motion: Motion, work: Path, n: int = 60,
           f"{np.abs(trip - own).mean():10.4f}", flush=True)
 
 
+def rule_gap(traj, focal: float, fps: float) -> float:
+    """Mean |Gyroflow's rule on the exported log - unjello's rows|, px a scanline."""
+    import telemetry_parser
+
+    with tempfile.TemporaryDirectory() as tmp:
+        (gcsv, proj), _ = export_project(traj, Path(tmp) / "c.gyroflow", video="c.mp4",
+                                         fps=fps, lens=ProjectLens(focal), frames=len(traj))
+        imu = telemetry_parser.Parser(str(gcsv)).normalized_imu()
+        offset = float(json.loads(proj.read_text())["offsets"]["0"])
+    w, h = traj.size
+    rule = gyroflow_displacement(np.array([s["timestamp_ms"] for s in imu]),
+                                 np.array([s["gyro"] for s in imu]), offset_ms=offset,
+                                 fps=fps, readout_ms=traj.timing.readout * 1000 / fps,
+                                 size=(h, w), focal=focal, frames=np.arange(len(traj)))
+    own = np.stack([f.camera_displacement for f in traj.frames])
+    return float(np.abs(rule - own).mean())
+
+
 def phone() -> None:
     if not PHONE.is_dir():
         print(f"skipped the phone clip: {PHONE} is absent")
         return
     fps, timing, focal = 30.0, SensorTiming(1.0), 573.85
     frames = [read_image(f) for f in list_frames(PHONE / "reshape")]
-    _, traj = correct_frames(frames, timing)
-    t, rate = camera_rates(traj, ProjectLens(focal), fps)
     log = read_gyro(PHONE / "gyro.txt")
     method = GyroMethod(timing, log, GyroConfig(sync_frames=60), fps=fps)
     for i, f in enumerate(frames[:60]):
         method.push(f.mean(axis=-1).astype(np.float32), float(i))
     method.flush()
     cal = method.calibration
-    real = np.stack([np.interp(t + cal.offset, log.time, (log.rate @ cal.axes.T)[:, i])
-                     for i in range(3)], axis=1)
-    per_frame = round(t.size / (t[-1] * fps))
-    box = np.ones(per_frame) / per_frame
     print(f"phone_gyro: {len(frames)} frames, {cal.describe()}")
     print("the footage's exported rates vs the phone's gyro, averaged over a frame interval:")
-    for i, axis in enumerate(("pitch (x)", "yaw (y)", "roll (z)")):
-        a = np.convolve(rate[:, i], box, "valid")
-        b = np.convolve(real[:, i], box, "valid")
-        r = np.corrcoef(a, b)[0, 1]
-        print(f"  {axis:9}: correlation {r:.3f}; rms rad/s exported {a.std():.3f}, "
-              f"gyro {b.std():.3f}")
+    for name, config in (("default", CorrectionConfig()), ("--camera-only", CAMERA_ONLY)):
+        _, traj = correct_frames(frames, timing, config=config)
+        t, rate = camera_rates(traj, ProjectLens(focal), fps)
+        print(f"  {name:13} Gyroflow's rule vs unjello's own rows: "
+              f"{rule_gap(traj, focal, fps):.4f} px a scanline (mean)")
+        real = np.stack([np.interp(t + cal.offset, log.time, (log.rate @ cal.axes.T)[:, i])
+                         for i in range(3)], axis=1)
+        per_frame = round(t.size / (t[-1] * fps))
+        box = np.ones(per_frame) / per_frame
+        for i, axis in enumerate(("pitch (x)", "yaw (y)", "roll (z)")):
+            a = np.convolve(rate[:, i], box, "valid")
+            b = np.convolve(real[:, i], box, "valid")
+            r = np.corrcoef(a, b)[0, 1]
+            print(f"  {name:13} {axis:9}: correlation {r:.3f}; rms rad/s exported "
+                  f"{a.std():.3f}, gyro {b.std():.3f}")
 
 
 def main() -> None:

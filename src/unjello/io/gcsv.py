@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..gyrolog import GyroLog, _axes_spec
 from ..timing import coded_axes
 
-__all__ = ["is_gcsv", "read_gcsv", "stated_calibration"]
+__all__ = ["is_gcsv", "read_gcsv", "stated_calibration", "written_by_unjello"]
 
 _MAGIC = ("GYROFLOW IMU LOG", "CAMERA IMU LOG")
 
@@ -35,6 +35,18 @@ def is_gcsv(path: str | os.PathLike) -> bool:
     except OSError:
         return False
     return head.lstrip(b"\xef\xbb\xbf").startswith(tuple(m.encode() for m in _MAGIC))
+
+
+def written_by_unjello(path: str | os.PathLike) -> bool:
+    """Return whether a file is a ``.gcsv`` log :mod:`unjello.gyroflow` wrote."""
+    if not is_gcsv(path):
+        return False
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            head = f.read(500)
+    except OSError:
+        return False
+    return "\nvendor,unjello\n" in head
 
 
 def read_gcsv(path: str | os.PathLike) -> tuple[GyroLog, dict[str, str]]:

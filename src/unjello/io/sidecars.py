@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..gyrolog import GyroConfig, GyroLog
-from .gcsv import is_gcsv, read_gcsv
+from .gcsv import is_gcsv, read_gcsv, written_by_unjello
 from .telemetry import EmbeddedGyro, embedded_gyro, telemetry_available, vendor_call
 
 __all__ = ["StatedReadout", "stated_readout", "LensProfile", "read_lens_profile",
@@ -183,7 +183,7 @@ def read_lens_profile(path: str | os.PathLike) -> LensProfile:
 
 
 def find_gyro_log(src: str | os.PathLike) -> Path:
-    """Return the gyro log beside a clip: ``NAME.gyro.csv``, ``NAME.gyro.txt`` or ``NAME.gcsv``.
+    """Return the gyro log beside a clip: ``NAME.gyro.csv``, ``.gyro.txt``, or unjello's ``.gcsv``.
 
     This is how the gyro method finds a clip's log when none is given (and how a batch
     finds each clip's).
@@ -197,7 +197,9 @@ def find_gyro_log(src: str | os.PathLike) -> Path:
     base = src.with_suffix("") if src.is_file() else src
     for ext in (".gyro.csv", ".gyro.txt", ".gcsv"):
         cand = base.with_name(base.name + ext)
-        if cand.is_file():
+        # Another's NAME.gcsv is the camera's record, read by telemetry-parser
+        # (gyro_source); one unjello wrote is a log with its calibration stated.
+        if cand.is_file() and (ext != ".gcsv" or written_by_unjello(cand)):
             return cand
     raise SettingsError(f"the gyro method needs a gyro log: pass gyro=FILE or put "
                         f"{base.name}.gyro.csv beside {src.name}")
