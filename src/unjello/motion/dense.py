@@ -44,6 +44,7 @@ from concurrent.futures import Executor, Future
 import cv2
 import numpy as np
 
+from ..kernels import residual_side
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
@@ -353,15 +354,6 @@ class DenseMethod(SafeField):
             return np.stack([np.interp(t, grid_t, c[:, 0]), np.interp(t, grid_t, c[:, 1])],
                             axis=-1).astype(np.float32)
 
-        c_img = c.astype(np.float32)[None]
-        zero_map = np.zeros((h, w), np.float32)
-
-        def c_at_pixels(t: np.ndarray) -> np.ndarray:
-            """``c`` at every pixel's time (uniform grid: one vectorised lookup)."""
-            idx = (t - np.float32(grid_t[0])) * np.float32(1.0 / step)
-            return cv2.remap(c_img, idx, zero_map, cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REPLICATE)
-
         cam_rows = c_at(t_rows)
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
         velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
@@ -386,7 +378,7 @@ class DenseMethod(SafeField):
             return FrameMotion(fr.index, fr.start, camera, to_full_rows(velocity), ok=True,
                                note=self._note)
         field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
-                                                         c_at_pixels)
+                                                         (float(grid_t[0]), float(step), c))
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
@@ -408,7 +400,7 @@ class DenseMethod(SafeField):
                            camera=camera)
 
     def _residual(self, fr: DenseFrame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
-                  cam_disp: np.ndarray, c_at_pixels: Callable[[np.ndarray], np.ndarray]
+                  cam_disp: np.ndarray, cam: tuple[float, float, np.ndarray]
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each pixel's motion beyond the camera's, carried to the reference time.
 
@@ -429,9 +421,11 @@ class DenseMethod(SafeField):
         """
         h, w = fr.image.shape
         rho = self.timing.readout
-        ys = np.arange(h, dtype=np.float32)[:, None]
         t_s = t_rows.astype(np.float32)[:, None]  # one time a row
-        c_s = cam_rows[:, None, :]
+        grid_t0, step, c = cam
+        c_grid = np.ascontiguousarray(c, np.float32)
+        t_own = np.ascontiguousarray(t_rows, np.float32)
+        c_own = np.ascontiguousarray(cam_rows, np.float32)
         sides = []
         entering = np.ones((h, w), dtype=bool)  # no neighbour's flow lands inside
         neighbours = {f.index: f for f in self._frames}
@@ -442,12 +436,10 @@ class DenseMethod(SafeField):
             entering &= ~landing(flow)[2]
             if self.config.snap_window:
                 flow = snap_to_global(fr.image, other.image, flow, ok, self.config.snap_window)
-            t_o = np.float32(other.start - fr.start) + np.float32(rho / h) * (ys + flow[..., 1])
-            resid = c_at_pixels(t_o)
-            np.subtract(c_s, resid, out=resid)
-            resid += flow
-            t_o -= t_s  # from here on: the time from the pixel's own
-            sides.append((t_o, resid, ok, flow))
+            # The camera's part of the flow (eq. 26) off it, and the time to where it lands.
+            e, resid = residual_side(np.ascontiguousarray(flow, np.float32), c_grid, grid_t0,
+                                     step, other.start - fr.start, rho / h, t_own, c_own)
+            sides.append((e, resid, ok, flow))
         # Per row: the time from each pixel's to the reference.
         ahead_t = np.float32(t_ref) - t_s
         if len(sides) == 1 and self.config.advect:

@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 
 from ..errors import SettingsError
+from ..kernels import consistency, shorth_sorted
 from ..timing import pixel_grid
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
@@ -176,10 +177,8 @@ def landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     """Pixels whose flow lands inside the frame and comes back within ``tol`` px."""
-    gx, gy, inside = landing(fwd)
-    back = cv2.remap(bwd, gx, gy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    err = np.hypot(fwd[..., 0] + back[..., 0], fwd[..., 1] + back[..., 1])
-    return inside & (err <= tol)
+    return consistency(np.ascontiguousarray(fwd, np.float32),
+                       np.ascontiguousarray(bwd, np.float32), float(tol))
 
 
 def _shorth(values: np.ndarray) -> np.ndarray:
@@ -197,18 +196,7 @@ def _shorth(values: np.ndarray) -> np.ndarray:
     -------
     ndarray of shape (rows, c)
     """
-    srt = np.sort(values, axis=1)  # NaN last
-    valid = np.isfinite(srt).sum(axis=1)  # (rows, c)
-    rows, n, c = srt.shape
-    half = np.maximum(valid // 2, 1)
-    idx = np.arange(n)[None, :, None]
-    end = idx + half[:, None, :]
-    ends = np.take_along_axis(srt, np.minimum(end, n - 1), axis=1)
-    width = np.where(end < valid[:, None, :], ends - srt, np.inf)
-    best = np.argmin(width, axis=1)  # (rows, c)
-    lo = np.take_along_axis(srt, best[:, None, :], axis=1)[:, 0]
-    hi = np.take_along_axis(srt, np.minimum(best + half, n - 1)[:, None, :], axis=1)[:, 0]
-    return 0.5 * (lo + hi)
+    return shorth_sorted(np.sort(values, axis=1))  # NaN last
 
 
 def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
