@@ -94,6 +94,49 @@ def test_quadratic_ahead(flow):
     assert (fallback == ~(oka | okb)).all()
 
 
+def test_projective_differences(flow):
+    from unjello.motion.field import projective_flow
+
+    h, w = flow.shape[:2]
+    rng = np.random.default_rng(5)
+    gx, gy = grid(h, w)
+    cur = (100 + 50 * np.sin(gx / 5) * np.cos(gy / 4)).astype(np.float32)
+    other = np.ascontiguousarray(np.roll(cur, 3, axis=1) + rng.normal(0, 2, cur.shape),
+                                 np.float32)
+    coef = np.array([2.0, 0.3, -0.2, -1.0, 0.1, 0.4, 0.05, -0.08])
+    want_glob = projective_flow(coef, gx.astype(np.float32), gy.astype(np.float32), (h, w))
+    grey = other[..., None]
+    want_dg = np.abs(cur - bilinear(grey, gx + want_glob[..., 0], gy + want_glob[..., 1])[..., 0])
+    want_df = np.abs(cur - bilinear(grey, gx + flow[..., 0], gy + flow[..., 1])[..., 0])
+    glob, d_glob, d_flow = kernels.projective_differences(cur, other, flow, coef)
+    assert np.abs(glob - want_glob).max() < TOL
+    assert np.abs(d_glob - want_dg).max() < 0.01  # grey levels: 1e-3 px of a 10-level slope
+    assert np.abs(d_flow - want_df).max() < 0.01
+
+
+@pytest.mark.parametrize("size", [(90, 160), (45, 80), (67, 123)])
+def test_outside_pixels(size):
+    """The OpenCV reference: the marked cells upsampled (nearest), their pixels listed,
+    those whose source is outside kept."""
+    import cv2
+
+    h, w = size
+    rng = np.random.default_rng(6)
+    cells = (rng.random((9, 16)) < 0.3).astype(np.uint8)
+    gx, gy = grid(h, w)
+    mx = (gx + rng.normal(0, 1, (h, w)) + 0.3 * w * (gx > 0.8 * w)).astype(np.float32)
+    my = (gy + rng.normal(0, 1, (h, w))).astype(np.float32)
+    big = cv2.resize(cells, (w, h), interpolation=cv2.INTER_NEAREST)
+    pts = cv2.findNonZero(big).reshape(-1, 2)
+    xs, ys = pts[:, 0], pts[:, 1]
+    sx, sy = mx[ys, xs], my[ys, xs]
+    out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
+    got = kernels.outside_pixels(cells, mx, my)
+    for a, b in zip(got, (xs[out], ys[out], sx[out], sy[out]), strict=True):
+        assert np.array_equal(a, b)
+    assert out.sum() > 20
+
+
 def shorth_reference(values: np.ndarray) -> np.ndarray:
     """NumPy reference: the shortest half's midpoint, per row and channel (NaN = missing)."""
     srt = np.sort(values, axis=1)

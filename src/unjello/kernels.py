@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-__all__ = ["consistency", "residual_side", "quadratic_ahead", "shorth_sorted", "warm_up"]
+__all__ = ["consistency", "residual_side", "quadratic_ahead", "projective_differences",
+           "outside_pixels", "shorth_sorted", "warm_up"]
 
 
 def _compiled(fn: Callable[..., Any]) -> Any:
@@ -154,6 +155,103 @@ def quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndar
     return field, fallback
 
 
+@njit(inline="always")
+def _grey(img: np.ndarray, x: float, y: float) -> float:
+    """``img`` (h, w) at ``(x, y)``, bilinear, the position clamped to the grid."""
+    h, w = img.shape
+    x = _clamp(x, w - 1.0)
+    y = _clamp(y, h - 1.0)
+    x0, y0 = int(x), int(y)
+    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+    ax, ay = x - x0, y - y0
+    top = img[y0, x0] + (img[y0, x1] - img[y0, x0]) * ax
+    bottom = img[y1, x0] + (img[y1, x1] - img[y1, x0]) * ax
+    return top + (bottom - top) * ay
+
+
+@_compiled
+def projective_differences(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
+                           coef: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Evaluate the projective flow on the grid; how well it and ``flow`` match, per pixel.
+
+    ``coef`` is the eight-parameter projective flow of
+    :func:`unjello.motion.field.projective_flow` (coordinates centred on the grid and
+    scaled by its larger side).
+
+    Returns
+    -------
+    glob : ndarray of shape (h, w, 2), float32
+        The projective flow at every pixel.
+    d_glob, d_flow : ndarray of shape (h, w), float32
+        ``|cur(s) - other(s + F(s))|`` for ``F`` the projective flow and ``flow``.
+    """
+    h, w = cur.shape
+    scale = 1.0 / max(h, w)
+    a1, a2, a3, a4, a5, a6, a7, a8 = (coef[0], coef[1], coef[2], coef[3], coef[4], coef[5],
+                                      coef[6], coef[7])
+    glob = np.empty((h, w, 2), np.float32)
+    d_glob = np.empty((h, w), np.float32)
+    d_flow = np.empty((h, w), np.float32)
+    for i in range(h):
+        y = (i - 0.5 * h) * scale
+        for j in range(w):
+            x = (j - 0.5 * w) * scale
+            quad = a7 * x + a8 * y
+            u = a1 + a2 * x + a3 * y + quad * x
+            v = a4 + a5 * x + a6 * y + quad * y
+            glob[i, j, 0] = u
+            glob[i, j, 1] = v
+            c = cur[i, j]
+            d_glob[i, j] = abs(_grey(other, j + u, i + v) - c)
+            d_flow[i, j] = abs(_grey(other, j + flow[i, j, 0], i + flow[i, j, 1]) - c)
+    return glob, d_glob, d_flow
+
+
+@_compiled
+def outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Find the pixels whose source lies outside the frame, only in the marked cells.
+
+    ``cells`` (th, tw) marks the coarse samples near which a source may leave the frame;
+    pixel ``(x, y)`` of the (h, w) maps belongs to cell ``(x * tw // w, y * th // h)`` (as
+    nearest-neighbour upsampling of ``cells`` would say). Row by row, as ``cv2.findNonZero``
+    lists them.
+
+    Returns
+    -------
+    xs, ys : ndarray of int32
+        The pixels whose source ``(map_x, map_y)`` lies more than half a pixel outside.
+    sx, sy : ndarray of float32
+        Their sources.
+    """
+    h, w = map_x.shape
+    th, tw = cells.shape
+    lo = np.empty(tw + 1, np.int64)  # the first pixel column of each cell
+    for c in range(tw + 1):
+        lo[c] = (c * w + tw - 1) // tw
+    count = 0
+    for rnd in range(2):  # count, then fill
+        if rnd == 1:
+            xs = np.empty(count, np.int32)
+            ys = np.empty(count, np.int32)
+            sx = np.empty(count, np.float32)
+            sy = np.empty(count, np.float32)
+        n = 0
+        for y in range(h):
+            cy = y * th // h
+            for c in range(tw):
+                if not cells[cy, c]:
+                    continue
+                for x in range(lo[c], lo[c + 1]):
+                    px, py = map_x[y, x], map_y[y, x]
+                    if px < -0.5 or px > w - 0.5 or py < -0.5 or py > h - 0.5:
+                        if rnd == 1:
+                            xs[n], ys[n], sx[n], sy[n] = x, y, px, py
+                        n += 1
+        count = n
+    return xs, ys, sx, sy
+
+
 @_compiled
 def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     """Midpoint of the shortest interval holding half of each row's sorted values.
@@ -199,5 +297,7 @@ def warm_up() -> float:
                   np.zeros((4, 2), np.float32))
     quadratic_ahead(e, f, ok, -e, f, ok, np.zeros((4, 1), np.float32))
     shorth_sorted(np.sort(f, axis=1))
+    outside_pixels(ok.view(np.uint8), e, e)
+    projective_differences(e, e, f, np.zeros(8))
     return time.perf_counter() - t
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .kernels import outside_pixels
+
 __all__ = ["neighbour_sources", "fill_from_neighbours", "INSET"]
 
 #: Pixels of the flow's grid between the frame's border and where the flow carried past
@@ -81,14 +83,13 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
         return []
     outside = cv2.bitwise_not(inside)
     if coarse is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
-        outside = cv2.resize(cv2.dilate(outside, np.ones((3, 3), np.uint8)), (w, h),
-                             interpolation=cv2.INTER_NEAREST)
-    pts = cv2.findNonZero(outside).reshape(-1, 2)
-    xs, ys = pts[:, 0], pts[:, 1]
-    sx, sy = mx[ys, xs], my[ys, xs]
-    if coarse is not None:
-        out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
-        xs, ys, sx, sy = xs[out], ys[out], sx[out], sy[out]
+        xs, ys, sx, sy = outside_pixels(cv2.dilate(outside, np.ones((3, 3), np.uint8)),
+                                        np.ascontiguousarray(mx, np.float32),
+                                        np.ascontiguousarray(my, np.float32))
+    else:
+        pts = cv2.findNonZero(outside).reshape(-1, 2)
+        xs, ys = pts[:, 0], pts[:, 1]
+        sx, sy = mx[ys, xs], my[ys, xs]
     order = list(range(len(flows)))
     if offsets is not None and reference_row is not None and len(flows) > 1:
         late = sy >= reference_row  # read after the reference: the previous frame first

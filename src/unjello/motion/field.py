@@ -12,10 +12,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..kernels import quadratic_ahead
+from ..kernels import projective_differences, quadratic_ahead
 from ..timing import pixel_grid
 from .camera import BLAS
-from .flow import patch_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
            "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference"]
@@ -210,11 +209,13 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     coef = fit_projective(flow, ok, gx, gy)
     if coef is None:
         return flow
-    glob = projective_flow(coef, gx, gy, (h, w))
-
-    better = (patch_cost(cur, other, gx, gy, glob, window)
-              <= patch_cost(cur, other, gx, gy, flow, window))
-    put(glob, flow, ~better)
+    # One compiled pass: the projective flow and both flows' differences; then the patches.
+    glob, d_glob, d_flow = projective_differences(
+        np.ascontiguousarray(cur, np.float32), np.ascontiguousarray(other, np.float32),
+        np.ascontiguousarray(flow, np.float32), np.asarray(coef, np.float64))
+    worse = (cv2.boxFilter(d_glob, -1, (window, window))
+             > cv2.boxFilter(d_flow, -1, (window, window)))
+    put(glob, flow, worse)
     return glob
 
 
