@@ -94,26 +94,6 @@ def test_quadratic_ahead(flow):
     assert (fallback == ~(oka | okb)).all()
 
 
-def test_projective_differences(flow):
-    from unjello.motion.field import projective_flow
-
-    h, w = flow.shape[:2]
-    rng = np.random.default_rng(5)
-    gx, gy = grid(h, w)
-    cur = (100 + 50 * np.sin(gx / 5) * np.cos(gy / 4)).astype(np.float32)
-    other = np.ascontiguousarray(np.roll(cur, 3, axis=1) + rng.normal(0, 2, cur.shape),
-                                 np.float32)
-    coef = np.array([2.0, 0.3, -0.2, -1.0, 0.1, 0.4, 0.05, -0.08])
-    want_glob = projective_flow(coef, gx.astype(np.float32), gy.astype(np.float32), (h, w))
-    grey = other[..., None]
-    want_dg = np.abs(cur - bilinear(grey, gx + want_glob[..., 0], gy + want_glob[..., 1])[..., 0])
-    want_df = np.abs(cur - bilinear(grey, gx + flow[..., 0], gy + flow[..., 1])[..., 0])
-    glob, d_glob, d_flow = kernels.projective_differences(cur, other, flow, coef)
-    assert np.abs(glob - want_glob).max() < TOL
-    assert np.abs(d_glob - want_dg).max() < 0.01  # grey levels: 1e-3 px of a 10-level slope
-    assert np.abs(d_flow - want_df).max() < 0.01
-
-
 @pytest.mark.parametrize("size", [(90, 160), (45, 80), (67, 123)])
 def test_outside_pixels(size):
     """The OpenCV reference: the marked cells upsampled (nearest), their pixels listed,
@@ -135,6 +115,16 @@ def test_outside_pixels(size):
     for a, b in zip(got, (xs[out], ys[out], sx[out], sy[out]), strict=True):
         assert np.array_equal(a, b)
     assert out.sum() > 20
+
+
+@pytest.mark.parametrize("size", [(37, 53), (1, 5), (4, 1), (2, 2)])
+def test_jacobian_det(flow, size):
+    f = np.ascontiguousarray(flow[:size[0], :size[1]])
+    grads = [np.gradient(f[..., k], axis=a) if f.shape[a] > 1 else np.zeros(f.shape[:2])
+             for k, a in ((0, 1), (0, 0), (1, 1), (1, 0))]
+    dxx, dxy, dyx, dyy = grads
+    want = (1 - dxx) * (1 - dyy) - dxy * dyx
+    assert np.abs(kernels.jacobian_det(f) - want).max() < TOL
 
 
 def shorth_reference(values: np.ndarray) -> np.ndarray:

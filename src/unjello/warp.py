@@ -287,9 +287,9 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
         to a frame's size).
     """
     h, w = field.shape[:2]
-    f = field.astype(np.float32)
-    if frame is not None and frame != (h, w):
-        f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
+    f = np.ascontiguousarray(field, np.float32).copy()
+    if frame is not None and frame != (h, w):  # per channel (no broadcast over an axis of 2)
+        cv2.multiply(f, (w / frame[1], h / frame[0], 0.0, 0.0), dst=f)
     gx, gy = pixel_grid(h, w)
     mx, my = gx + f[..., 0], gy + f[..., 1]
     for _ in range(iterations):

@@ -54,6 +54,8 @@ from .field import (
     advected_velocity,
     at_reference,
     fill_unreliable,
+    rows_minus,
+    scale_axes,
     smooth_field,
     snap_to_global,
 )
@@ -383,13 +385,13 @@ class DenseMethod(SafeField):
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
         field, folds, kept, spun, said, fronts = self._safe_field(
-            fr, cam_disp[:, None, :] - field_resid, cam_disp, fallback, entering, float(t_ref),
+            fr, rows_minus(cam_disp, field_resid), cam_disp, fallback, entering, float(t_ref),
             c_at, u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
         disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
-        field *= scale
+        scale_axes(field, *scale)
         for layer in fronts:  # their displacements too; the weight stays
             layer[..., :2] *= scale
         neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))

@@ -19,10 +19,12 @@ __all__ = ["DenseConfig", "POLISHED", "DETAILS"]
 DETAILS = ("full", "polished", "checked")
 
 #: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
-#: refinement iterations a level, then three at full resolution. Measured against other
-#: mixes (``docs/measurements.md``): the research pairs 28.69 / 31.46 dB (``full``: 28.78 /
-#: 31.57), the flow of a 480 x 270 copy in 22 ms of one core (``full``: 40).
-POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 3}
+#: refinement iterations a level, then two at full resolution. Measured against other
+#: mixes (``docs/measurements.md``): the research pairs 28.74 / 31.45 dB with two, as with
+#: three (28.73 / 31.45 with one, 28.72 / 31.43 with none; ``full``: 28.78 / 31.57); the
+#: simulated suite within 0.001x of three (one: up to +0.003x; none: drone jello 0.63 ->
+#: 0.71x). Each iteration costs about 3 ms of one core on a 480 x 270 copy.
+POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 2}
 
 
 @dataclass(frozen=True)

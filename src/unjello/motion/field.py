@@ -12,12 +12,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..kernels import projective_differences, quadratic_ahead
+from ..kernels import quadratic_ahead
 from ..timing import pixel_grid
 from .camera import BLAS
+from .flow import patch_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
-           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference"]
+           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",
+           "scale_axes", "rows_minus"]
 
 
 def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
@@ -47,6 +49,40 @@ def both_axes(values: np.ndarray) -> np.ndarray:
     three times as much (0.4 against 0.12 ms on 480 x 270).
     """
     return np.stack([values, values], axis=-1)
+
+
+def scale_axes(field: np.ndarray, sx: float, sy: float) -> np.ndarray:
+    """Multiply a field's x by ``sx`` and its y by ``sy``, in place; return it.
+
+    ``field *= (sx, sy)`` broadcasts over an axis of two: 0.8 ms on 480 x 270, against
+    0.03 ms as OpenCV's per-channel scalar.
+
+    Examples
+    --------
+    >>> scale_axes(np.ones((1, 2, 2), np.float32), 2.0, 3.0)[0].tolist()
+    [[2.0, 3.0], [2.0, 3.0]]
+    """
+    if field.dtype == np.float32 and field.flags.c_contiguous and field.ndim == 3 \
+            and field.shape[2] == 2:
+        cv2.multiply(field, (float(sx), float(sy), 0.0, 0.0), dst=field)
+    else:
+        field *= np.array([sx, sy], dtype=field.dtype)
+    return field
+
+
+def rows_minus(rows: np.ndarray, field: np.ndarray) -> np.ndarray:
+    """Return ``rows[:, None, :] - field``: each row's ``(x, y)`` less the field's pixels.
+
+    Without the broadcast over an axis of two (0.85 against 0.08 ms on 480 x 270).
+
+    Examples
+    --------
+    >>> rows_minus(np.array([[1.0, 2.0]], np.float32), np.ones((1, 3, 2), np.float32))[0, 2]
+    array([0., 1.], dtype=float32)
+    """
+    h, w = field.shape[:2]
+    return (np.tile(np.asarray(rows, field.dtype), w)
+            - np.ascontiguousarray(field).reshape(h, 2 * w)).reshape(h, w, 2)
 
 
 def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
@@ -209,13 +245,11 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     coef = fit_projective(flow, ok, gx, gy)
     if coef is None:
         return flow
-    # One compiled pass: the projective flow and both flows' differences; then the patches.
-    glob, d_glob, d_flow = projective_differences(
-        np.ascontiguousarray(cur, np.float32), np.ascontiguousarray(other, np.float32),
-        np.ascontiguousarray(flow, np.float32), np.asarray(coef, np.float64))
-    worse = (cv2.boxFilter(d_glob, -1, (window, window))
-             > cv2.boxFilter(d_flow, -1, (window, window)))
-    put(glob, flow, worse)
+    glob = projective_flow(coef, gx, gy, (h, w))
+
+    better = (patch_cost(cur, other, gx, gy, glob, window)
+              <= patch_cost(cur, other, gx, gy, flow, window))
+    put(glob, flow, ~better)
     return glob
 
 

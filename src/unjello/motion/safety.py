@@ -23,6 +23,8 @@ from collections.abc import Callable, Sequence
 import cv2
 import numpy as np
 
+from ..kernels import jacobian_det
+
 __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_blobs",
            "fill_hull", "fill_holes", "whole_object", "object_islands", "keep_whole",
            "unlike_neighbours", "followed_objects", "ISLAND_MISSED", "REACH"]
@@ -84,12 +86,7 @@ def map_jacobian(field: np.ndarray) -> np.ndarray:
     >>> float(map_jacobian(f)[2, 2])
     0.5
     """
-    f = np.asarray(field, np.float32)
-    dxx = np.gradient(f[..., 0], axis=1)
-    dxy = np.gradient(f[..., 0], axis=0)
-    dyx = np.gradient(f[..., 1], axis=1)
-    dyy = np.gradient(f[..., 1], axis=0)
-    return ((1 - dxx) * (1 - dyy) - dxy * dyx).astype(np.float32)
+    return jacobian_det(np.ascontiguousarray(field, np.float32))  # np.gradient's differences
 
 
 def fold_blobs(field: np.ndarray, followed: np.ndarray | None = None, reach: int = REACH
