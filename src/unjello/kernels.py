@@ -16,6 +16,7 @@ Arrays in, arrays out; float32 fields of shape (h, w, 2), C-contiguous.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -23,7 +24,7 @@ import numpy as np
 from numba import njit
 
 __all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
-           "shorth_sorted", "warm_up"]
+           "projective_irls", "shorth_sorted", "warm_up"]
 
 
 def _compiled(fn: Callable[..., Any]) -> Any:
@@ -223,6 +224,104 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
     return det
 
 
+@njit
+def _median(values: np.ndarray) -> float:
+    """Median of a 1-D array (a Shell sort of a copy: quick to compile, unlike ``np.sort``)."""
+    a = values.copy()
+    n = a.size
+    gap = 1
+    while gap < n // 3:
+        gap = 3 * gap + 1
+    while gap > 0:
+        for i in range(gap, n):
+            v = a[i]
+            j = i
+            while j >= gap and a[j - gap] > v:
+                a[j] = a[j - gap]
+                j -= gap
+            a[j] = v
+        gap //= 3
+    return 0.5 * (a[(n - 1) // 2] + a[n // 2])
+
+
+@njit
+def _solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``m x = b`` for a small square system: Gaussian elimination, partial pivoting.
+
+    (Numba's ``np.linalg.solve`` takes 8 s to compile; this, a fraction of one.)
+    """
+    n = b.size
+    a = m.copy()
+    x = b.copy()
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(a[i, k]) > abs(a[p, k]):
+                p = i
+        if p != k:
+            for j in range(n):
+                a[k, j], a[p, j] = a[p, j], a[k, j]
+            x[k], x[p] = x[p], x[k]
+        for i in range(k + 1, n):
+            f = a[i, k] / a[k, k]
+            for j in range(k, n):
+                a[i, j] -= f * a[k, j]
+            x[i] -= f * x[k]
+    for k in range(n - 1, -1, -1):
+        acc = x[k]
+        for j in range(k + 1, n):
+            acc -= a[k, j] * x[j]
+        x[k] = acc / a[k, k]
+    return x
+
+
+@_compiled
+def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray,
+                    rounds: int) -> np.ndarray:
+    """Robust least-squares fit of the eight-parameter projective flow to samples.
+
+    The model of :func:`unjello.motion.field.projective_flow` at ``(xs, ys)`` (already
+    centred and scaled); iteratively reweighted, ``rounds`` solves, each sample weighted
+    ``1 / max(r / (1.5 median(r) + 1e-3), 1)`` by its residual ``r`` of the last solve.
+
+    Returns
+    -------
+    ndarray of shape (8,), float64
+    """
+    n = xs.size
+    weight = np.ones(n)
+    coef = np.zeros(8)
+    ax = np.zeros(8)
+    ay = np.zeros(8)
+    r = np.empty(n)
+    for _ in range(rounds):
+        m = np.zeros((8, 8))
+        b = np.zeros(8)
+        for i in range(n):
+            x, y, q = xs[i], ys[i], weight[i] * weight[i]
+            ax[0], ax[1], ax[2], ax[6], ax[7] = 1.0, x, y, x * x, x * y
+            ay[3], ay[4], ay[5], ay[6], ay[7] = 1.0, x, y, x * y, y * y
+            for a in range(8):
+                b[a] += q * (ax[a] * u[i] + ay[a] * v[i])
+                for c in range(a, 8):
+                    m[a, c] += q * (ax[a] * ax[c] + ay[a] * ay[c])
+        for a in range(8):
+            m[a, a] += 1e-12
+            for c in range(a):
+                m[a, c] = m[c, a]
+        coef = _solve(m, b)
+        for i in range(n):
+            x, y = xs[i], ys[i]
+            quad = coef[6] * x + coef[7] * y
+            du = coef[0] + coef[1] * x + coef[2] * y + quad * x - u[i]
+            dv = coef[3] + coef[4] * x + coef[5] * y + quad * y - v[i]
+            r[i] = math.sqrt(du * du + dv * dv)
+        scale = 1.5 * _median(r) + 1e-3
+        for i in range(n):
+            weight[i] = 1.0 / max(r[i] / scale, 1.0)
+    return coef
+
+
 @_compiled
 def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     """Midpoint of the shortest interval holding half of each row's sorted values.
@@ -269,6 +368,7 @@ def warm_up() -> float:
     quadratic_ahead(e, f, ok, -e, f, ok, np.zeros((4, 1), np.float32))
     shorth_sorted(np.sort(f, axis=1))
     jacobian_det(f)
+    projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
     return time.perf_counter() - t
 

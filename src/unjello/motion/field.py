@@ -12,9 +12,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..kernels import quadratic_ahead
+from ..kernels import projective_irls, quadratic_ahead
 from ..timing import pixel_grid
-from .camera import BLAS
 from .flow import patch_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
@@ -163,24 +162,13 @@ def fit_projective(values: np.ndarray, ok: np.ndarray, x: np.ndarray, y: np.ndar
     n = int(use.sum())
     if n < 32:
         return None
-    # The model's columns (see :func:`projective_flow`) at the samples, in its units.
     scale = 1.0 / max(h, w)
     xs = (x[sub].ravel()[use].astype(np.float64) - 0.5 * w) * scale
     ys = (y[sub].ravel()[use].astype(np.float64) - 0.5 * h) * scale
-    one, zero = np.ones(n), np.zeros(n)
-    a = np.stack([np.stack([one, xs, ys, zero, zero, zero, xs * xs, xs * ys], axis=1),
-                  np.stack([zero, zero, zero, one, xs, ys, xs * ys, ys * ys], axis=1)],
-                 axis=1).reshape(2 * n, 8)  # rows: x then y of each sample
-    target = values[sub].reshape(-1, 2)[use].astype(np.float64).ravel()
-    weight = np.ones(n)
-    with BLAS.limit(limits=1, user_api="blas"):
-        for _ in range(4):
-            aw = (a * np.repeat(weight ** 2, 2)[:, None]).T
-            coef = np.linalg.solve(aw @ a + 1e-12 * np.eye(8), aw @ target)
-            r = (a @ coef - target).reshape(n, 2)
-            r = np.hypot(r[:, 0], r[:, 1])
-            weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
-    return coef
+    target = values[sub].reshape(-1, 2)[use].astype(np.float64)
+    # Four reweighted solves of the 8 x 8 normal equations, compiled.
+    return projective_irls(xs, ys, np.ascontiguousarray(target[:, 0]),
+                           np.ascontiguousarray(target[:, 1]), 4)
 
 
 def advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
