@@ -24,7 +24,7 @@ import numpy as np
 from numba import njit
 
 __all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
-           "projective_irls", "shorth_sorted", "warm_up"]
+           "projective_irls", "shift_rows", "shorth_sorted", "warm_up"]
 
 
 def _compiled(fn: Callable[..., Any]) -> Any:
@@ -224,6 +224,73 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
     return det
 
 
+@_compiled
+def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
+               top: float) -> np.ndarray:
+    """Warp back by rows: ``out[y, x] = image(x + dx[y], sy[y])``, bilinear.
+
+    What :func:`cv2.remap` does with the maps ``x + dx[y]`` and ``sy[y]``, without the
+    maps: along a row the source moves by a constant, so the weights are the row's own
+    and the loops run over contiguous memory. Outside the image the edge is repeated
+    (``black`` False) or black.
+
+    Parameters
+    ----------
+    image : ndarray of shape (h, w)
+        Any real dtype; integers are rounded and clipped to ``[0, top]``.
+    dx, sy : ndarray of shape (h,)
+        Each output row's horizontal shift and source row.
+    black : bool
+    top : float
+        The largest value of an integer dtype; 0 for floats (no rounding).
+
+    Returns
+    -------
+    ndarray like ``image``
+    """
+    h, w = image.shape
+    out = np.empty_like(image)
+    row = np.empty(w + 2, np.float32)  # the two source rows blended, one pixel beyond
+    for y in range(h):
+        fy = sy[y]
+        y0 = int(math.floor(fy))
+        a = np.float32(fy - y0)
+        w0, w1 = np.float32(1.0) - a, a
+        if black and not 0 <= y0 < h:
+            w0 = np.float32(0.0)
+        if black and not 0 <= y0 + 1 < h:
+            w1 = np.float32(0.0)
+        src0, src1 = image[min(max(y0, 0), h - 1)], image[min(max(y0 + 1, 0), h - 1)]
+        dst = out[y]
+        for x in range(w):
+            row[x + 1] = src0[x] * w0 + src1[x] * w1
+        row[0] = 0.0 if black else row[1]
+        row[w + 1] = 0.0 if black else row[w]
+        fx = dx[y]
+        ix = int(math.floor(fx))
+        b = np.float32(fx - ix)
+        c = np.float32(1.0) - b
+        # Output column x reads row[x + ix + 1] and row[x + ix + 2]: inside for lo <= x < hi.
+        lo = min(max(-ix - 1, 0), w)
+        hi = max(min(w - 1 - ix, w), lo)
+        for x in range(w):
+            if x == lo and hi > lo:  # the contiguous middle, vectorised
+                if top > 0:
+                    for z in range(lo, hi):
+                        v = row[z + ix + 1] * c + row[z + ix + 2] * b
+                        dst[z] = min(int(v + np.float32(0.5)), top)
+                else:
+                    for z in range(lo, hi):
+                        dst[z] = row[z + ix + 1] * c + row[z + ix + 2] * b
+            if lo <= x < hi:
+                continue
+            q0 = min(max(x + ix + 1, 0), w + 1)
+            q1 = min(max(x + ix + 2, 0), w + 1)
+            v = row[q0] * c + row[q1] * b
+            dst[x] = min(int(v + np.float32(0.5)), top) if top > 0 else v
+    return out
+
+
 @njit
 def _median(values: np.ndarray) -> float:
     """Median of a 1-D array (a Shell sort of a copy: quick to compile, unlike ``np.sort``)."""
@@ -368,6 +435,7 @@ def warm_up() -> float:
     quadratic_ahead(e, f, ok, -e, f, ok, np.zeros((4, 1), np.float32))
     shorth_sorted(np.sort(f, axis=1))
     jacobian_det(f)
+    shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
     projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
     return time.perf_counter() - t
