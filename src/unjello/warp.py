@@ -27,16 +27,15 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .kernels import shift_rows
 from .lens import Lens
 from .neighbours import fill_from_neighbours, neighbour_sources
+from .scanlines import row_sources, shift_planes
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
            "splat", "remap", "apply_maps", "fill_holes", "field_maps", "front_maps",
-           "resize_maps", "remap_maps", "row_sources", "shift_planes", "reframe_maps",
-           "frame_maps", "compose_maps"]
+           "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "compose_maps"]
 
 Fill = Literal["black", "nearest"]
 WarpMode = Literal["remap", "splat"]
@@ -66,56 +65,6 @@ def resample_displacement(displacement: np.ndarray, height: int, width_scale: fl
     rows = np.arange(h, dtype=np.float64)
     out = np.stack([np.interp(src_rows, rows, displacement[:, k]) for k in range(2)], axis=1)
     return out * np.array([width_scale, height_scale])
-
-
-def _inverse_rows(displacement: np.ndarray) -> np.ndarray:
-    """Solve ``s_y - Delta_y(s_y) = p_y`` for every output row ``p_y``."""
-    h = displacement.shape[0]
-    rows = np.arange(h, dtype=np.float64)
-    f = np.maximum.accumulate(rows - displacement[:, 1])
-    s = np.interp(rows, f, rows)
-    lo, hi = rows < f[0], rows > f[-1]
-    s[lo] = rows[lo] + displacement[0, 1]
-    s[hi] = rows[hi] + displacement[-1, 1]
-    return s
-
-
-def row_sources(displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each output row's horizontal shift and source row, of a per-scanline displacement.
-
-    Returns
-    -------
-    dx, sy : ndarray of shape (h,), float64
-        Output pixel ``(x, y)`` comes from ``(x + dx[y], sy[y])``.
-    """
-    sy = _inverse_rows(displacement)
-    rows = np.arange(displacement.shape[0], dtype=np.float64)
-    return np.interp(sy, rows, displacement[:, 0]), sy
-
-
-def shift_planes(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
-                 ) -> np.ndarray:
-    """Backward warp by a per-scanline displacement without maps (:func:`remap`'s result).
-
-    Along an output row the source moves by a constant, so one compiled pass over the
-    rows (:func:`~unjello.kernels.shift_rows`) does what :func:`cv2.remap` does with
-    :func:`remap_maps`, within one grey level (its 1/32-pixel weights), at 1080p in 8
-    against 12 ms of one core (maps included; ``docs/measurements.md``).
-
-    Parameters
-    ----------
-    image : ndarray of shape (h, w[, c])
-    displacement : ndarray of shape (h, 2)
-    fill : {'nearest', 'black'}
-    """
-    dx, sy = row_sources(displacement)
-    # Positions in float32 as the maps would hold them.
-    dx, sy = dx.astype(np.float32).astype(np.float64), sy.astype(np.float32).astype(np.float64)
-    top = float(np.iinfo(image.dtype).max) if np.issubdtype(image.dtype, np.integer) else 0.0
-    if image.ndim == 2:
-        return shift_rows(np.ascontiguousarray(image), dx, sy, fill == "black", top)
-    return np.dstack([shift_rows(np.ascontiguousarray(image[..., k]), dx, sy, fill == "black",
-                                 top) for k in range(image.shape[2])])
 
 
 def remap_maps(displacement: np.ndarray, width: int,
