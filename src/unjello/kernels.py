@@ -1,15 +1,19 @@
-"""Compiled per-pixel kernels: the dense method's fixed points and checks in one pass each.
+"""Compiled per-pixel kernels: the dense method's checks, residuals and fits in one pass each.
 
-The stages after the optical flow sample a flow field at moved positions and combine the
-result, pixel by pixel. In NumPy and OpenCV each such step is a whole-field call writing a
-temporary (a remap, a sum, a norm, a comparison): on the 480 x 270 working grid the
-memory traffic costs more than the arithmetic. Here each job is one loop over the grid
-(Numba, ``njit`` with ``cache=True``: compiled once on first use, then loaded from the
-cache next to this file or, where that is read-only, Numba's user-wide cache).
+The stages after the optical flow combine a flow field with the camera's motion pixel by
+pixel. In NumPy each step is a whole-field call writing a temporary (a sum, a norm, a
+comparison, a sort): on the 480 x 270 working grid the memory traffic and the calls cost
+more than the arithmetic. Here each job is one loop over the grid (Numba, ``njit`` with
+``cache=True``: compiled once on first use, about 5 s, then loaded from the cache next to
+this file or, where that is read-only, Numba's user-wide cache; with no writable cache
+anywhere, compiled every run). Where OpenCV does a job in one vectorised call (resampling
+a smooth field at moved positions) it stays: compiled loops of those were slower
+(``docs/measurements.md``).
 
 Bilinear sampling clamps the position to the grid, which is OpenCV's ``INTER_LINEAR`` with
 ``BORDER_REPLICATE`` without its 1/32-pixel quantisation of the position. Each kernel has
-a NumPy reference in ``tests/test_kernels.py``; they agree within 1e-3 px.
+a NumPy (or OpenCV) reference in ``tests/test_kernels.py`` or ``tests/test_scanlines.py``;
+they agree within 1e-3 px (one grey level for the warp).
 
 Arrays in, arrays out; float32 fields of shape (h, w, 2), C-contiguous.
 """
