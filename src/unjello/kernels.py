@@ -274,23 +274,10 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
         ix = int(math.floor(fx))
         b = np.float32(fx - ix)
         c = np.float32(1.0) - b
-        # Output column x reads row[x + ix + 1] and row[x + ix + 2]: inside for lo <= x < hi.
-        lo = min(max(-ix - 1, 0), w)
-        hi = max(min(w - 1 - ix, w), lo)
+        # Output column x reads row[x + ix + 1] and row[x + ix + 2], held to the row's ends.
         for x in range(w):
-            if x == lo and hi > lo:  # the contiguous middle, vectorised
-                if top > 0:
-                    for z in range(lo, hi):
-                        v = row[z + ix + 1] * c + row[z + ix + 2] * b
-                        dst[z] = min(int(v + np.float32(0.5)), top)
-                else:
-                    for z in range(lo, hi):
-                        dst[z] = row[z + ix + 1] * c + row[z + ix + 2] * b
-            if lo <= x < hi:
-                continue
-            q0 = min(max(x + ix + 1, 0), w + 1)
-            q1 = min(max(x + ix + 2, 0), w + 1)
-            v = row[q0] * c + row[q1] * b
+            v = (row[min(max(x + ix + 1, 0), w + 1)] * c
+                 + row[min(max(x + ix + 2, 0), w + 1)] * b)
             dst[x] = min(int(v + np.float32(0.5)), top) if top > 0 else v
     return out
 
