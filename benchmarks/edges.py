@@ -5,7 +5,8 @@ away from, content that the frame's own scanlines never saw: the output pixels w
 true source lies outside the frame (the *strip*). A neighbouring frame saw most of it.
 This renders simulated clips (10 frames) and pairs (2 frames) at 10-40 % of the width a
 frame, readouts 0.4-1.0, with straight flat poles passing in front 1.3 times as near as
-the background (parallax; ``--near``), and prints, per case, the PSNR (dB) against the
+the background (parallax; ``--near``; two poles' motions a frame apart at least, as one
+fence post could not be told from the next), and prints, per case, the PSNR (dB) against the
 global-shutter truth of:
 
 - the strip (pixels whose true source lies outside the frame), split into the pixels
@@ -15,8 +16,11 @@ global-shutter truth of:
 - the interior (every other pixel, 8 px from the frame's border);
 - the whole frame (8 px margin);
 
-for the input and the default correction, and the displacement error of the correction
-against the truth (relative to none).
+for the input and the default correction; the displacement error of the correction
+against the truth (relative to none); the median bend of the upright poles within 30 px
+of a side, in the input and the output (:func:`pole_bends`; px; a pole torn apart counts
+as its width plus 20 px), and how many of them are straight within 1 px; the share of
+pixels none saw, true / as the run reports it (``unseen``, ``correct --json``).
 
 Usage::
 
@@ -40,6 +44,8 @@ from unjello.warp import frame_maps
 #: (share of the width a frame, readout)
 SPEEDS = ((0.1, 0.4), (0.15, 1.0), (0.25, 0.4), (0.25, 1.0), (0.4, 0.7))
 MARGIN = 8
+#: Poles within this many pixels of a side have their bend reported.
+SIDE = 30
 
 
 def _psnr(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
@@ -73,6 +79,37 @@ def strip_masks(sim: list, timing: SensorTiming) -> list[tuple[np.ndarray, ...]]
     return out
 
 
+def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
+               side: int = SIDE) -> list[float]:
+    """How far each upright pole within ``side`` px of a side strays in ``image`` (px).
+
+    A pole is found in the global-shutter ``truth`` as the columns whose every row shows
+    its flat colour (within 12 levels); in ``image``, per row, the mean column of that
+    colour within the pole's width plus 20 px either side of it. The pole's bend is the
+    largest distance of a row's mean from the truth's; a row where the colour is not
+    found there at all counts as the pole's width plus 20 px (torn).
+    """
+    h, w = truth.shape[:2]
+    out = []
+    for colour in colours:
+        hit = np.abs(truth.astype(np.int16) - colour).max(axis=-1) <= 12
+        cols = np.flatnonzero(hit.mean(axis=0) >= 0.98)
+        if not cols.size or cols[-1] - cols[0] > 40:
+            continue  # not in the frame, or two poles of one colour: not scored
+        centre = cols.mean()
+        if min(cols[0], w - 1 - cols[-1]) > side or cols[0] == 0 or cols[-1] == w - 1:
+            continue  # not near a side, or cut by the frame's edge
+        reach = int(cols[-1] - cols[0]) // 2 + 20
+        lo, hi = max(0, int(centre) - reach), min(w, int(centre) + reach + 1)
+        found = np.abs(image[:, lo:hi].astype(np.int16) - colour).max(axis=-1) <= 12
+        x = np.arange(lo, hi, dtype=np.float64)
+        count = found.sum(axis=1)
+        rows = np.where(count > 0, (found * x).sum(axis=1) / np.maximum(count, 1) - centre,
+                        reach)
+        out.append(float(np.abs(rows[MARGIN:h - MARGIN]).max()))
+    return out
+
+
 def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[int, int],
         near: float = 1.3) -> dict:
     """One case: simulate, correct by default, score."""
@@ -83,7 +120,11 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
     layers = []
     if near > 1.0:
         d = motion(np.linspace(-1.0, frames + 1.0, 64))[:, 0]
-        layers = pole_layers(motion, size, (float(d.min()), float(d.max())), near)
+        # Two pole's motions a frame apart at least: a flat pole the next one replaces
+        # between frames cannot be told from it (temporal aliasing, as a fence's).
+        apart = max(120.0, 2 * near * frac * 640)
+        layers = pole_layers(motion, size, (float(d.min()), float(d.max())), near,
+                             gap=(apart, apart + 140.0))
     sim = list(simulate(scene, motion, timing, frames, size=size, layers=layers))
     rolling = [s.rolling for s in sim]
     t0 = time.process_time()
@@ -101,6 +142,15 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
                 10 * np.log10(255.0 ** 2 / max(float(np.mean(allpix ** 2)), 1e-10))))
         row[f"{tag}_frame"] = float(np.mean([_psnr(o, s.truth, frame)
                                              for o, s in zip(images, sim, strict=True)]))
+    colours = [layer.image[0, 0] for layer in layers]
+    for tag, images in (("in", rolling), ("out", out)):
+        bends = [b for o, s in zip(images, sim, strict=True)
+                 for b in pole_bends(o, s.truth, colours)]
+        row[f"{tag}_bend"] = float(np.median(bends)) if bends else float("nan")
+        row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b in bends)}/{len(bends)}"
+                                  if bends else "-")
+    row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
+    row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
     row["strip_share"] = float(np.mean([(m[0] | m[1] | m[2]).mean() for m in masks]))
     row["ratio"] = (np.mean([displacement_error(f, s.motion) for f, s in
                              zip(traj.frames, sim, strict=True)])
@@ -120,7 +170,7 @@ def main() -> None:
           "default; the strip seen by the previous frame, by the next, by none")
     print(f"{'scene':10} {'kind':5} {'speed':>5} {'rho':>4} {'strip%':>6} "
           f"{'strip: prev':>15} {'next':>15} {'none':>15} {'interior':>15} {'frame':>15} "
-          f"{'err':>6} {'cpu s/f':>7}")
+          f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'none%':>11} {'cpu s/f':>7}")
     for scene in args.scenes.split(","):
         for frac, readout in SPEEDS:
             for kind, frames in (("clip", 10), ("pair", 2)):
@@ -128,12 +178,15 @@ def main() -> None:
                         args.near)
 
                 def pair(name: str, r: dict = r) -> str:
-                    return f"{r['in_' + name]:6.2f} -> {r['out_' + name]:5.2f}"
+                    return f"{r['in_' + name]:6.2f} -> {r['out_' + name]:5.2f}".replace(
+                        "nan", "-")
 
                 print(f"{scene:10} {kind:5} {frac:5.2f} {readout:4.1f} "
                       f"{100 * r['strip_share']:6.1f} {pair('prev'):>15} {pair('next'):>15} "
                       f"{pair('unseen'):>15} {pair('interior'):>15} {pair('frame'):>15} "
-                      f"{r['ratio']:6.3f} "
+                      f"{r['ratio']:6.3f} {pair('bend'):>14} "
+                      f"{r['in_straight'] + ' -> ' + r['out_straight']:>11} "
+                      f"{100 * r['unseen_true']:4.1f}/{100 * r['unseen_said']:4.1f}  "
                       f"{r['cpu_s']:7.2f}", flush=True)
 
 

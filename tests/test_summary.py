@@ -36,6 +36,19 @@ def test_the_summary_reads_the_frames_fields():
     assert summarize(Trajectory(SensorTiming(), (16, 8), frames=[_frame(0)])).warnings() == []
 
 
+def test_what_no_frame_saw_is_said_and_given():
+    """Issue 38: frames showing, beyond the edge, what no frame saw are listed, over 0.5 %."""
+    traj = Trajectory(SensorTiming(), (16, 8), frames=[
+        _frame(0, unseen=0.004), _frame(1, unseen=0.02), _frame(2, unseen=0.031)])
+    found = summarize(traj)
+    assert found.unseen == ((1, 0.02), (2, 0.031))
+    line = next(line for line in found.warnings() if "no frame saw" in line)
+    assert "2 frame(s)" in line and "3.1% of frame 2" in line
+    assert found.as_json(traj)["unseen"] == [0.004, 0.02, 0.031]
+    back = FrameMotion.from_dict(traj.frames[2].to_dict())
+    assert back.unseen == 0.031
+
+
 def test_batch_lines_carry_the_warnings(scene, tmp_path):
     src = tmp_path / "clip.mp4"
     make_clip(src, scene, n=6, size=(160, 120))

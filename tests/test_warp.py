@@ -1,9 +1,11 @@
 import numpy as np
 import pytest
 
+from unjello.neighbours import unseen_share
 from unjello.timing import SensorTiming
 from unjello.trajectory import scanline_displacement
 from unjello.warp import (
+    PictureWarper,
     field_maps,
     fill_from_neighbours,
     fill_holes,
@@ -105,9 +107,38 @@ def test_fill_from_neighbours_takes_what_the_frame_missed():
     out = np.zeros_like(frame)
     flow = np.zeros((h // 2, w // 2, 2), np.float32)
     flow[..., 0] = 5.0  # half-resolution grid: 10 px of the frame
-    fill_from_neighbours(out, neighbour_sources((mx, my), [flow]), [neighbour])
+    parts = neighbour_sources((mx, my), [flow])
+    fill_from_neighbours(out, parts, [neighbour])
     assert np.allclose(out[:, :5], scene[:, 5:10], atol=1e-3)
     assert np.all(out[:, 5:] == 0)  # sources inside the frame are left alone
+    assert unseen_share(parts, (h, w)) == 0.0
+    # 12 columns beyond the edge, the neighbour saw 10 of them: 2 columns none saw, left
+    # as the warp filled them, and counted.
+    out[:] = -1.0
+    parts = neighbour_sources((mx - 7, my), [flow])
+    fill_from_neighbours(out, parts, [neighbour])
+    assert np.all(out[:, :2] == -1.0) and np.allclose(out[:, 2:12], scene[:, :10], atol=1e-3)
+    assert unseen_share(parts, (h, w)) == pytest.approx(2 / w)
+
+
+def test_the_warper_says_what_no_frame_saw():
+    """PictureWarper.unseen: the share of the output beyond the edge no neighbour gave."""
+    from unjello.trajectory import FrameMotion
+
+    h, w = 40, 60
+    d = np.zeros((h, 2))
+    d[:, 0] = 6.0  # every row shifted 6 px: 6 columns beyond the edge
+    fm = FrameMotion(0, 0.0, d, np.zeros((h, 2)))
+    warper = PictureWarper(SensorTiming(1.0))
+    warper([np.zeros((h, w), np.uint8)], fm)
+    assert warper.unseen == pytest.approx(6 / w)
+    field = np.zeros((h, w, 2), np.float32)
+    field[..., 0] = 6.0
+    flow = np.zeros((h, w, 2), np.float32)
+    flow[..., 0] = -4.0  # the neighbour saw 4 of them
+    fm = FrameMotion(0, 0.0, d, np.zeros((h, 2)), field=field, neighbours=((-1, flow),))
+    warper([np.zeros((h, w), np.uint8)], fm, {-1: [np.zeros((h, w), np.uint8)]})
+    assert warper.unseen == pytest.approx(2 / w)
 
 
 def test_neighbour_sources_coarse_test_finds_the_same_pixels():

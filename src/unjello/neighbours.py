@@ -14,7 +14,7 @@ import numpy as np
 
 from .kernels import outside_pixels
 
-__all__ = ["neighbour_sources", "fill_from_neighbours", "INSET"]
+__all__ = ["neighbour_sources", "fill_from_neighbours", "unseen_share", "INSET"]
 
 #: Pixels of the flow's grid between the frame's border and where the flow carried past
 #: it is read (:func:`neighbour_sources`).
@@ -67,7 +67,9 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
     Returns
     -------
     list of (k, ys, xs, nx, ny)
-        Output pixels ``(ys, xs)`` to take from neighbour ``k`` at ``(nx, ny)``.
+        Output pixels ``(ys, xs)`` to take from neighbour ``k`` at ``(nx, ny)``; ``k``
+        -1 (the last part, when any): the pixels no neighbour saw either, at their
+        sources beyond the edge (:func:`fill_from_neighbours` leaves them as they are).
     """
     mx, my = maps
     h, w = mx.shape
@@ -118,6 +120,8 @@ def _follow(flows: list[np.ndarray], which: list[int], ys: np.ndarray, xs: np.nd
         ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
         parts.append((k, ys[ok], xs[ok], nx[ok], ny[ok]))
         ys, xs, sx, sy = ys[~ok], xs[~ok], sx[~ok], sy[~ok]
+    if ys.size:
+        parts.append((-1, ys, xs, sx, sy))
     return parts
 
 
@@ -140,6 +144,11 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
         ``out``.
     """
     for k, ys, xs, nx, ny in parts:
-        if ys.size:
+        if ys.size and k >= 0:
             out[ys, xs] = _sample(planes[k], nx, ny)
     return out
+
+
+def unseen_share(parts: list, shape: tuple[int, int]) -> float:
+    """Return the share of a plane of ``shape`` that no frame saw, from its ``parts``."""
+    return sum(p[1].size for p in parts if p[0] < 0) / float(shape[0] * shape[1])

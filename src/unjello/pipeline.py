@@ -225,7 +225,11 @@ class Corrector:
             planes = self._held.popleft()
             around = {-1: self._last, 1: self._held[0] if self._held else None}
             skip = self._only is not None and fm.index not in self._only
-            out.append((planes if skip else self.warp(planes, fm, around), fm))
+            if skip:
+                out.append((planes, fm))
+            else:
+                warped = self.warp(planes, fm, around)
+                out.append((warped, dataclasses.replace(fm, unseen=self.warp.unseen)))
             self._last = planes
         return out
 

@@ -3,7 +3,8 @@
 :func:`summarize` reads a corrected clip's :class:`~unjello.trajectory.Trajectory` -- its
 frames' fields, not their notes -- into a :class:`RunSummary`: the frames bridged over,
 the vibration detected, the frames whose per-pixel motion was given the motion around it
-or still folds, the shares of unreliable flow and of content entering the frame, the gyro's
+or still folds, the shares of unreliable flow and of content entering the frame, the
+frames showing what no frame saw beyond the edge, the gyro's
 calibration and the stabilisation. :meth:`RunSummary.warnings` says what a user should be
 told, one line each; ``unjello correct`` prints them, ``unjello batch`` writes them into
 its JSON lines.
@@ -18,7 +19,10 @@ import numpy as np
 from .motion.dense import FOLD_WARNING
 from .trajectory import Trajectory
 
-__all__ = ["RunSummary", "summarize"]
+__all__ = ["RunSummary", "summarize", "UNSEEN_NOTE"]
+
+#: Frames showing more than this share of what no frame saw are reported.
+UNSEEN_NOTE = 0.005
 
 
 @dataclass(frozen=True)
@@ -39,10 +43,14 @@ class RunSummary:
         Frames whose correction still folds or tears more than
         :data:`~unjello.motion.dense.FOLD_WARNING` of the picture.
     spun : tuple of int
-        Frames with spinning objects turned back by a fitted rotation.
+        Frames with objects the flow failed on given a fitted rigid motion (spinning
+        objects turned back by a rotation, near ones carried by a velocity of their own).
     fallback, entering : float
         Mean share of pixels on the camera model (unreliable flow, or content entering
         the frame), and the part of it entering.
+    unseen : tuple of (int, float)
+        Frames (index, share of the picture) showing, beyond the frame's edge, what no
+        frame saw (the edge repeated, or black): over :data:`UNSEEN_NOTE` of the picture.
     calibration : str
         The gyro method's calibration (axes, offset, focal, agreement); '' otherwise.
     stabilized : dict or None
@@ -57,6 +65,7 @@ class RunSummary:
     spun: tuple[int, ...] = ()
     fallback: float = 0.0
     entering: float = 0.0
+    unseen: tuple[tuple[int, float], ...] = ()
     calibration: str = ""
     stabilized: dict | None = None
 
@@ -92,6 +101,12 @@ class RunSummary:
             out.append(f"{100 * self.entering:.0f}% of the pixels show content entering the "
                        "frame, which no neighbour saw: they take the motion of their "
                        "surroundings")
+        if self.unseen:
+            index, share = max(self.unseen, key=lambda k: k[1])
+            out.append(f"beyond the frame's edge: on {len(self.unseen)} frame(s) the "
+                       f"correction shows what no frame saw (at most {100 * share:.1f}% of "
+                       f"frame {index}); the edge is repeated there (black with --fill "
+                       "black)")
         if self.stabilized:
             z, s = self.stabilized["zoom"], self.stabilized["largest_shift"]
             out.append(f"stabilised: camera path smoothed over "
@@ -110,6 +125,7 @@ class RunSummary:
                 "kept_frames": [i for i, _ in self.kept],
                 "folded_frames": [i for i, _ in self.folded],
                 "folds": [round(f.folds, 4) for f in traj.frames],
+                "unseen": [round(f.unseen, 4) for f in traj.frames],
                 "spun_frames": list(self.spun), "vibration": self.vibration,
                 "confidence": [round(f.confidence, 3) for f in traj.frames],
                 "stabilized": self.stabilized}
@@ -143,5 +159,6 @@ def summarize(traj: Trajectory, stabilize: tuple[float, object] | None = None) -
         spun=tuple(f.index for f in frames if f.spun > 0),
         fallback=float(np.mean([f.fallback for f in frames])) if n else 0.0,
         entering=float(np.mean([f.entering for f in frames])) if n else 0.0,
+        unseen=tuple((f.index, f.unseen) for f in frames if f.unseen > UNSEEN_NOTE),
         calibration=frames[0].note if traj.method == "gyro" and n else "",
         stabilized=stabilized)

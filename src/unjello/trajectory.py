@@ -17,9 +17,11 @@ frame: ``index``, ``start`` (time of the first
 scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
 ``kept`` (share given the motion around it because the per-pixel motion folded or tore
-the picture), ``spun`` (of those, the share given a rotation fitted to a spinning
-object), ``folds`` (share where the applied map still folds or tears in blobs),
-``confidence`` (:attr:`FrameMotion.confidence`, written for readers; recomputed on load),
+the picture), ``spun`` (the share given a rigid motion fitted to an object the flow
+failed on: a rotation, or a velocity of its own), ``folds`` (share where the applied
+map still folds or tears in blobs), ``unseen`` (share of the output showing what no
+frame saw: beyond the frame's edge), ``confidence`` (:attr:`FrameMotion.confidence`,
+written for readers; recomputed on load),
 ``displacement`` and ``velocity`` (``[x, y]`` per scanline, top-bottom orientation),
 ``camera`` (dense per-pixel: the camera trajectory's own per-scanline displacement),
 and for dense methods ``field`` (the per-pixel displacement every 8 pixels, ``[row][col]
@@ -121,8 +123,13 @@ class FrameMotion:
         or tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
         not followed, such as a fast-spinning object.
     spun : float
-        Dense methods: the part of ``kept`` given a rigid rotation fitted to a spinning
-        object (:func:`unjello.motion.spin.keep_spinning`) rather than the motion around it.
+        Dense methods: the share given a rigid motion fitted to an object the flow failed
+        on (:func:`unjello.motion.spin.keep_spinning`) rather than the motion around it: a
+        rotation (a spinning object), or a velocity of its own (a near object passing).
+    unseen : float
+        Share of the output picture whose source lies beyond the frame's edge and that no
+        neighbouring frame supplied (the edge repeated, or black): set by the warper
+        (:attr:`unjello.warp.PictureWarper.unseen`), 0 before warping.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -159,6 +166,7 @@ class FrameMotion:
     kept: float = 0.0
     folds: float = 0.0
     spun: float = 0.0
+    unseen: float = 0.0
     field: np.ndarray | None = None
     front: tuple[np.ndarray, ...] = ()
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
@@ -177,8 +185,8 @@ class FrameMotion:
         One minus the pixels whose own motion was not measured -- their flow failed
         (``fallback`` less ``entering``: content entering the frame is no failure, it
         moves with the camera) or they were given the motion around them (``kept``; the
-        two mostly overlap, the larger counts) -- less those a rotation fitted to a
-        spinning object explains (``spun``), and minus those where the correction still
+        two mostly overlap, the larger counts) -- less those a rigid motion fitted to an
+        object explains (``spun``), and minus those where the correction still
         folds or tears (``folds``). A frame bridged over a failure (``ok`` false) has 0.
         """
         if not self.ok:
@@ -214,6 +222,7 @@ class FrameMotion:
             "kept": round(float(self.kept), 4),
             "folds": round(float(self.folds), 4),
             "spun": round(float(self.spun), 4),
+            "unseen": round(float(self.unseen), 4),
             "confidence": round(self.confidence, 4),
             "displacement": pack(self.displacement, 1e-4),
             "velocity": pack(self.velocity, 1e-4),
@@ -260,6 +269,7 @@ class FrameMotion:
             kept=float(d.get("kept", 0.0)),
             folds=float(d.get("folds", 0.0)),
             spun=float(d.get("spun", 0.0)),
+            unseen=float(d.get("unseen", 0.0)),
             field=field,
             front=front,
             camera=unpack(d["camera"]).reshape(-1, 2) if d.get("camera") is not None else None,

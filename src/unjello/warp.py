@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 
 from .lens import Lens
-from .neighbours import fill_from_neighbours, neighbour_sources
+from .neighbours import fill_from_neighbours, neighbour_sources, unseen_share
 from .scanlines import row_sources, shift_planes
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
@@ -447,6 +447,12 @@ class PictureWarper:
     undistort : Lens, optional
         A fisheye lens (its focal length in pixels of the first plane) whose curvature is
         then taken out of every corrected plane (:meth:`~unjello.lens.Lens.undistortion_maps`).
+
+    Attributes
+    ----------
+    unseen : float
+        Of the last picture warped, the share of its first plane whose source lies beyond
+        the frame's edge and that no neighbour supplied (the edge repeated, or black).
     """
 
     def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest",
@@ -457,6 +463,7 @@ class PictureWarper:
         self.undistort = undistort
         self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         self._lens_maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self.unseen = 0.0
 
     def __call__(self, planes: list[np.ndarray], motion: FrameMotion,
                  around: dict[int, list[np.ndarray] | None] | None = None
@@ -494,6 +501,9 @@ class PictureWarper:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
             scale = plane.shape[1] / planes[0].shape[1]  # chroma: the lens in its pixels
+            if i == 0 and maps is None and (self.warp == "splat" or (
+                    self.undistort is None and motion.reframe.identity)):
+                self.unseen = _unseen_rows(motion.displacement, w)
             if maps is None and self.warp == "splat":
                 res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
                 if self.undistort is not None:  # a forward splat: a second resampling
@@ -518,6 +528,9 @@ class PictureWarper:
                             [k for k, _, _ in sources], self.timing.reference_row(ph))
                     res = fill_from_neighbours(
                         res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for _, pic, _ in sources])
+                if i == 0:
+                    self.unseen = (unseen_share(parts[(ph, pw)], (ph, pw)) if (ph, pw) in parts
+                                   else _outside_share(sized[(ph, pw)]))
             out.append(from_top_bottom(res, d))
         return out
 
@@ -550,6 +563,22 @@ def compose_maps(first: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, n
     mx, my = (cv2.remap(m, then[0], then[1], cv2.INTER_LINEAR,
                         borderMode=cv2.BORDER_REPLICATE) for m in first)
     return mx, my
+
+
+def _unseen_rows(displacement: np.ndarray, w: int) -> float:
+    """Share of a per-scanline warp's output whose source lies beyond the frame's edge."""
+    dx, sy = row_sources(displacement)
+    h = len(sy)
+    cols = np.where((sy < -0.5) | (sy > h - 0.5), w, np.minimum(w, np.floor(np.abs(dx) + 0.5)))
+    return float(cols.sum()) / (h * w)
+
+
+def _outside_share(maps: tuple[np.ndarray, np.ndarray]) -> float:
+    """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge."""
+    mx, my = maps
+    h, w = mx.shape
+    inside = cv2.bitwise_and(cv2.inRange(mx, -0.5, w - 0.5), cv2.inRange(my, -0.5, h - 0.5))
+    return 1.0 - cv2.countNonZero(inside) / float(h * w)
 
 
 def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:

@@ -54,7 +54,9 @@ def test_poles_in_parallax_keep_their_own_motion(scene):
     """Issue 38: flat poles passing in front of a pan from still at 2.2 times its speed
     (480x270, readout 0.9, up to 420 px/s) are followed by the flow, to both neighbours:
     they are no spinner. Measured: 0.144x in 5 s; taken for spinning objects (kept on the
-    motion around them, rotations fitted) before: 0.333x in 79 s, 8 of 20 frames kept."""
+    motion around them, rotations fitted) before: 0.333x in 79 s, 8 of 20 frames kept.
+    Where the flow loses a pole (frame 17), it is carried by a drift of its own: 17 px a
+    frame against the background (truth 1.2 x 14): 0.145x."""
     timing = SensorTiming(0.9)
     motion = Motion.from_rest(14.0, 0.0, 6.0, 9.0, 24.0)
     sim = list(simulate(scene, motion, timing, 20, size=(480, 270), layers="poles"))
@@ -63,7 +65,7 @@ def test_poles_in_parallax_keep_their_own_motion(scene):
                                                                      strict=True)])
     unc = np.mean([displacement_error(None, s.motion) for s in sim])
     assert err <= 0.17 * unc, (err, unc)
-    assert not any(f.kept or f.spun or "folds" in f.note for f in traj.frames)
+    assert not any(f.kept or "spinning" in f.note or "folds" in f.note for f in traj.frames)
 
 
 def test_the_strip_beyond_the_edge_comes_from_the_frame_that_saw_it():

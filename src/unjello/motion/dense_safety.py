@@ -210,7 +210,12 @@ class SafeField:
         if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
             return field, folds, 0.0, "", ()
         spun = float(spun_px.mean())
-        turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins)
+        turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins if s.omega)
+        drifts = ", ".join(f"{np.hypot(*s.drift):.0f}" for s in spins if not s.omega)
+        notes = ([f"{len(turns.split(','))} spinning object(s) turned back by a rotation "
+                  f"fitted per scanline ({turns} turns per frame)"] if turns else []) + (
+            [f"{len(drifts.split(','))} object(s) moving on their own carried by a velocity "
+             f"fitted per scanline ({drifts} px per frame against the motion around them)"]
+            if drifts else [])
         return spinning, after, spun, (
-            f"{len(spins)} spinning object(s) turned back by a rotation fitted per scanline "
-            f"({turns} turns per frame, {100 * spun:.0f}% of the picture)"), fronts
+            f"{'; '.join(notes)}: {100 * spun:.0f}% of the picture"), fronts

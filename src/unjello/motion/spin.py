@@ -29,133 +29,28 @@ propeller's region also shows the background between its blades).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
 
+from .rigid import MOVING, Spin, Track, at, carried, costs, fit_drift, prepare, rotate
 from .safety import fill_hull
 
-__all__ = ["Spin", "fit_spin", "spin_field", "spin_source", "spin_support", "spin_regions",
-           "keep_spinning", "MAX_SPIN", "WHOLE"]
+__all__ = ["Spin", "fit_spin", "fit_drift", "carried", "spin_field", "spin_source",
+           "spin_support", "spin_regions", "keep_spinning", "MAX_SPIN", "WHOLE"]
 
 #: The search covers rotations up to this many radians per frame interval either way
 #: (two turns: 60 rev/s at 30 fps).
 MAX_SPIN = 4 * np.pi
-#: Grey-level difference at which the match cost saturates (an occluded or
-#: mis-modelled pixel costs no more than this).
-TRUNCATE = 40.0
-#: A pixel the surroundings' motion leaves at least this far from its neighbours (grey
-#: levels) belongs to the object; only such pixels score a rotation.
-MOVING = 10.0
 #: A hole in the pixels a rotation explains is filled (taken as part of the object) up to
 #: this share of their area.
 HOLE = 0.02
 #: An object whose rotation explains at least this share of it (its hull) takes the
 #: rotation whole: what it leaves out is its rim and seams, where a cut shows.
 WHOLE = 0.85
-
-Track = Callable[[np.ndarray], np.ndarray]
-
-
-@dataclass(frozen=True)
-class Spin:
-    """A rigid rotation fitted to a region of one frame.
-
-    Attributes
-    ----------
-    centre : ndarray of shape (2,)
-        Centre ``C(t_ref)`` (x, y) in the frame's pixels at its reference time.
-    omega : float
-        Angular velocity, radians per frame interval (positive: clockwise on screen,
-        from +x towards +y).
-    cost : float
-        Mean truncated absolute difference of the region's pixels and where the rotation
-        puts them in the neighbouring frames (grey levels).
-    still_cost : float
-        The same with no rotation: the region moving with its surroundings. Both are
-        measured on the pixels that the surroundings' motion does not explain.
-    """
-
-    centre: np.ndarray
-    omega: float
-    cost: float
-    still_cost: float
-
-    @property
-    def gain(self) -> float:
-        """How much better the rotation explains the region than no rotation (ratio)."""
-        return self.still_cost / max(self.cost, 1e-6)
-
-
-def _rotate(v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
-
-
-def _at(track: Track, t: np.ndarray) -> np.ndarray:
-    """``track`` at times of any shape: shape ``t.shape + (2,)``."""
-    t = np.asarray(t, np.float64)
-    return np.asarray(track(t.ravel()), np.float64).reshape(t.shape + (2,))
-
-
-def _predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndarray,
-             track: Track, t_ref: float, offset: float, row_time: float,
-             iterations: int = 5) -> np.ndarray:
-    """Where points ``pts`` (n, 2), imaged at ``t_s``, appear in a frame starting at ``offset``.
-
-    For every rotation of ``omega`` (m,) about ``centre`` (m, 2) at once: shape (m, n, 2).
-    The point's scanline in that frame fixes the time it is imaged there, which fixes
-    where it is: solved by iterating ``t' = offset + row_time * y'`` (converges while the
-    object's rim moves less than a row per row of readout).
-    """
-    z = pts[:, 0] + 1j * pts[:, 1]
-    cz = centre[:, 0] + 1j * centre[:, 1]
-    c_ref = _at(track, np.array(t_ref)) @ (1, 1j)
-    rel = z[None] - (cz[:, None] + _at(track, t_s)[None] @ (1, 1j) - c_ref)
-    t_o = np.broadcast_to(offset + row_time * pts[None, :, 1], rel.shape)
-    for _ in range(iterations):
-        q = cz[:, None] + _at(track, t_o) @ (1, 1j) - c_ref + rel * np.exp(
-            1j * omega[:, None] * (t_o - t_s[None]))
-        t_o = offset + row_time * q.imag
-    return np.stack([q.real, q.imag], axis=-1)
-
-
-def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Sample ``image`` bilinearly at points of any shape.
-
-    The maps are folded into rows of 1024, under OpenCV's 32767-column limit.
-    """
-    n = x.size
-    cols = 1024
-    pad = -n % cols
-    mx = np.concatenate([x.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
-    my = np.concatenate([y.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
-    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return out.ravel()[:n].reshape(x.shape)
-
-
-def _costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np.ndarray,
-           centre: np.ndarray, omega: np.ndarray, track: Track, t_ref: float,
-           row_time: float, iterations: int = 5) -> np.ndarray:
-    """Return each point's truncated difference with its predictions, shape (m, n).
-
-    Averaged over the neighbours in which the point is predicted inside the frame.
-    """
-    h, w = image.shape
-    t_s = row_time * pts[:, 1]
-    own = _sample(image, pts[:, 0], pts[:, 1])
-    total = np.zeros((len(omega), len(pts)))
-    seen = np.zeros_like(total)
-    for other, offset in others:
-        q = _predict(pts, t_s, centre, omega, track, t_ref, offset, row_time, iterations)
-        val = _sample(other, q[..., 0], q[..., 1])
-        inside = ((q[..., 0] >= 0) & (q[..., 0] <= w - 1) & (q[..., 1] >= 0)
-                  & (q[..., 1] <= h - 1))
-        total += np.where(inside, np.minimum(np.abs(val - own[None]), TRUNCATE), 0.0)
-        seen += inside
-    return np.where(seen > 0, total / np.maximum(seen, 1), TRUNCATE)
+#: At most this many objects a frame are fitted a motion of their own (the largest).
+MAX_OBJECTS = 6
 
 
 def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
@@ -202,45 +97,11 @@ def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         None when the region is too small to fit (a radius under 8 px) or there is no
         neighbour.
     """
-    h, w = image.shape
-    ys, xs = np.nonzero(region)
-    if len(xs) < 200 or not others:
+    prep = prepare(image, others, region, track, t_ref, readout, coarse_radius)
+    if prep is None:
         return None
-    pts = np.stack([xs, ys], axis=1).astype(np.float64)
-    centroid = pts.mean(axis=0)
-    radius = float(np.percentile(np.linalg.norm(pts - centroid, axis=1), 95))
-    if radius < 8:
-        return None
-    c_ref = _at(track, np.array(t_ref))
-    # The centroid is where the object was at its mean scanline's time; at t_ref:
-    centroid = centroid - _at(track, np.array(readout / h * centroid[1])) + c_ref
-
-    def moving(img: np.ndarray, oth: list, p: np.ndarray, trk: Track, rt: float
-               ) -> np.ndarray:
-        """Return the points the surroundings' motion does not explain.
-
-        The object, not the background seen through it: only they score rotations.
-        """
-        still = _costs(img, oth, p, np.zeros((1, 2)), np.zeros(1), trk, t_ref, rt)[0]
-        return p[still >= MOVING]
-
-    # Coarse: all rotations about 9 centres, on a shrunk copy.
-    f = max(1.0, radius / coarse_radius)
-    size = (max(8, round(w / f)), max(8, round(h / f)))
-    small = [cv2.resize(im, size, interpolation=cv2.INTER_AREA) for im in (image, *[
-        o for o, _ in others])]
-    sreg = cv2.resize(region.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
-    sy, sx = np.nonzero(sreg)
-    scale = np.array([size[0] / w, size[1] / h])
-    strack: Track = lambda t: np.asarray(track(t)) * scale  # noqa: E731
-    sothers = [(o, off) for o, (_, off) in zip(small[1:], others, strict=True)]
-    spts = moving(small[0], sothers, np.stack([sx, sy], axis=1).astype(np.float64),
-                  strack, readout / size[1])
-    fine = moving(image, list(others), pts[::max(1, len(pts) // 6000)], track, readout / h)
-    if len(spts) < 30 or len(fine) < 100:
-        return None  # nothing moves against the surroundings
-    spts = spts[::max(1, len(spts) // 300)]
-    fine = fine[::max(1, len(fine) // 1500)]
+    h = image.shape[0]
+    centroid, radius, scale, fine = prep.centroid, prep.radius, prep.scale, prep.fine
     s_radius = radius * scale[0]
     grid = np.arange(-max_spin, max_spin + 1e-9, 1.5 / s_radius)
     grid = grid[np.abs(grid) * s_radius >= 1.0]  # a turn the rim shows
@@ -248,15 +109,16 @@ def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     for dy in (-2, 0, 2) if search else ():
         for dx in (-2, 0, 2):
             c = centroid * scale + (dx, dy)
-            scores = _costs(small[0], sothers, spts, np.repeat(c[None], len(grid), 0), grid,
-                            strack, t_ref, readout / size[1], iterations=3).mean(axis=1)
+            scores = costs(prep.small, prep.sothers, prep.spts, np.repeat(c[None], len(grid), 0),
+                            grid, prep.strack, t_ref, readout / prep.small.shape[0],
+                            iterations=3).mean(axis=1)
             for i in np.argsort(scores)[:2]:
                 found.append((float(scores[i]), c / scale, float(grid[i])))
     found.sort(key=lambda x: x[0])
 
     # Fine: a pattern search from the best few, the centre kept near the region's.
     def cost(c: np.ndarray, om: float) -> float:
-        return float(_costs(image, others, fine, c[None], np.array([om]), track, t_ref,
+        return float(costs(image, others, fine, c[None], np.array([om]), track, t_ref,
                             readout / h).mean())
 
     d_omega = 1.0 / radius  # a turn that moves the rim by 1 px in a frame interval
@@ -292,9 +154,11 @@ def spin_field(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     ``p = C(t_ref) + R(omega (t_ref - t_s)) (s - C(t_s))`` with ``C(t) = centre +
     track(t) - track(t_ref)``: the camera's part is ``track(t_s) - track(t_ref)``, the
     paper's eq. 26, and the rotation's part turns each scanline back by what the object
-    turned since the reference time.
+    turned since the reference time. An object moving on its own is carried by ``track``
+    plus its :attr:`Spin.drift`.
     """
     h, w = shape
+    track = carried(track, spin.drift)
     row_time = readout / h
     t_rows = row_time * np.arange(h)
     c_ref = track(np.array([t_ref]))[0]
@@ -302,7 +166,7 @@ def spin_field(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
     s = np.stack([xs, ys], axis=-1)
     rel = s - (spin.centre + moved[:, None, :])
-    p = spin.centre + _rotate(rel, spin.omega * (t_ref - t_rows)[:, None])
+    p = spin.centre + rotate(rel, spin.omega * (t_ref - t_rows)[:, None])
     return (s - p).astype(np.float32)
 
 
@@ -316,6 +180,7 @@ def spin_source(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     per row of readout, as :func:`fit_spin`'s predictions do).
     """
     h, w = shape
+    track = carried(track, spin.drift)
     row_time = readout / h
     c_ref = np.asarray(track(np.array([t_ref])), np.float64)[0]
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
@@ -323,7 +188,7 @@ def spin_source(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     y = ys.copy()
     for _ in range(iterations):
         t = row_time * y
-        src = spin.centre + _at(track, t) - c_ref + _rotate(rel, -spin.omega * (t_ref - t))
+        src = spin.centre + at(track, t) - c_ref + rotate(rel, -spin.omega * (t_ref - t))
         y = np.clip(src[..., 1], 0, h - 1)
     return (src - np.stack([xs, ys], axis=-1)).astype(np.float32)
 
@@ -341,8 +206,9 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     h, w = image.shape
     ys, xs = np.nonzero(region)
     pts = np.stack([xs, ys], axis=1).astype(np.float64)
-    both = _costs(image, others, pts, np.repeat(spin.centre[None], 2, 0),
-                  np.array([spin.omega, 0.0]), track, t_ref, readout / h)
+    both = costs(image, others, pts, np.repeat(spin.centre[None], 2, 0),
+                  np.array([spin.omega, 0.0]), track, t_ref, readout / h,
+                  drift=np.stack([spin.drift, np.zeros(2)]))
     rot = np.zeros((h, w), np.float32)
     still = np.zeros((h, w), np.float32)
     rot[ys, xs], still[ys, xs] = both
@@ -380,7 +246,7 @@ def spin_regions(seeds: np.ndarray, image: np.ndarray,
     h, w = image.shape
     ys, xs = np.mgrid[0:h, 0:w]
     pts = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float64)
-    still = _costs(image, others, pts, np.zeros((1, 2)), np.zeros(1), track, t_ref,
+    still = costs(image, others, pts, np.zeros((1, 2)), np.zeros(1), track, t_ref,
                    readout / h, iterations=3)[0].reshape(h, w).astype(np.float32)
     moving = cv2.GaussianBlur(still, (0, 0), 2.0) >= MOVING
     size = max(5, w // 40) | 1
@@ -405,16 +271,20 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
                   steady_gain: float = 1.6, min_area: int = 400
                   ) -> tuple[np.ndarray, list[Spin], np.ndarray, list[Spin],
                              tuple[np.ndarray, ...]]:
-    """Give each failed object that a rotation explains that rotation's correction.
+    """Give each failed object that a drift or a rotation explains that motion's correction.
 
-    Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px) is
-    fitted a rotation (:func:`fit_spin`, from the ``hints`` first, then by a full search;
-    then again on the pixels its rotation explains, leaving out the background seen
-    through the object). It is used when it matches the neighbours at least ``min_gain``
-    times better than the motion around it -- or ``steady_gain`` times when the previous
-    frame found the same rotation (``hints``: within 15 % and a quarter of the radius)
-    -- and turns its rim by a pixel or more per frame. Its correction
-    (:func:`spin_field`) then replaces ``field`` with the weight of
+    Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px, the
+    :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`,
+    with a neighbour on each side): one that it explains ``min_gain`` times better than
+    the motion around it, and moves a pixel or more a frame, is an object moving on its
+    own (a near pole the flow could not follow) and takes that drift as a rotation would
+    (below). The others are fitted a rotation (:func:`fit_spin`, from the ``hints``
+    first, then by a full search; then again on the pixels its rotation explains,
+    leaving out the background seen through the object). It is used when it matches the
+    neighbours at least ``min_gain`` times better than the motion around it -- or
+    ``steady_gain`` times when the previous frame found the same rotation (``hints``:
+    within 15 % and a quarter of the radius) -- and turns its rim by a pixel or more per
+    frame. Its correction (:func:`spin_field`) then replaces ``field`` with the weight of
     :func:`spin_support` -- or over its whole hull, where the rotation explains
     :data:`WHOLE` of it (a spinner: what it leaves out is its rim and seams, where a cut
     shows); elsewhere ``field`` (the surroundings' motion, from
@@ -427,11 +297,11 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     -------
     field : ndarray of shape (h, w, 2)
     spins : list of Spin
-        The rotations used.
+        The rotations and drifts (``omega`` 0) used.
     weight : ndarray of shape (h, w), float32
         The rotations' weight at each pixel (0 where none was used).
     candidates : list of Spin
-        Every rotation fitted, used or not: the next frame's ``hints``.
+        Every rotation fitted, used or not: the next frame's ``hints`` (no drifts).
     fronts : tuple of ndarray
         Per rotation used, its layer in front of ``field`` (:attr:`FrameMotion.front
         <unjello.trajectory.FrameMotion>`): :func:`spin_source` and the weight.
@@ -439,7 +309,8 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     labels = spin_regions(seeds, image, others, track, t_ref, readout)
     out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
-    for i in range(1, int(labels.max()) + 1):
+    areas = np.bincount(labels.ravel())[1:]
+    for i in 1 + np.argsort(-areas)[:MAX_OBJECTS]:  # the largest, to bound the cost
         region = labels == i
         if region.sum() < min_area:
             continue
@@ -452,8 +323,19 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
                 return spin.gain >= min_gain and steady
             return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
 
-        spin = None
-        for search in (False, True):  # from last frame's rotation, else a full search
+        # An object moving on its own (a near pole) is no spinner: a drift that explains
+        # it, seen from both sides, is taken before any rotation is searched.
+        spin = fit_drift(image, others, region, track, t_ref, readout) if len(
+            others) >= 2 else None
+        if spin is not None and steady_gain <= spin.gain < min_gain:
+            # Again on what it explains: a near pole's hull holds what it covers.
+            support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
+            if support.sum() >= min_area / 2:
+                spin = fit_drift(image, others, support, track, t_ref, readout) or spin
+        drifting = spin is not None and spin.gain >= min_gain and bool(
+            np.hypot(*spin.drift) >= 1.0)
+        for search in (False, True) if not drifting else ():
+            # From last frame's rotation, else a full search.
             if not search and not hints:
                 continue
             spin = fit_spin(image, others, region, track, t_ref, readout, hints=hints,
@@ -470,9 +352,10 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
                 break
         if spin is None:
             continue
-        candidates.append(spin)
-        if not good(spin) or abs(spin.omega) * radius < 1.0:
-            continue
+        if not drifting:
+            candidates.append(spin)
+            if not good(spin) or abs(spin.omega) * radius < 1.0:
+                continue
         weight = spin_support(image, others, region, spin, track, t_ref, readout)
         if (weight > 0.5).sum() >= WHOLE * region.sum():
             weight = cv2.GaussianBlur(region.astype(np.float32), (0, 0), 1.0)

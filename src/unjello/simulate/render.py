@@ -135,11 +135,13 @@ def scene_layers(kind: str, image: np.ndarray, camera: Callable[[np.ndarray], np
 
 
 def pole_layers(camera: Callable[[np.ndarray], np.ndarray], size: tuple[int, int],
-                travel: tuple[float, float], nearer: float = 2.2) -> list[Layer]:
+                travel: tuple[float, float], nearer: float = 2.2,
+                gap: tuple[float, float] = (120.0, 260.0)) -> list[Layer]:
     """Return flat-coloured vertical poles passing in front: the ``poles`` scene.
 
     A fixed pseudo-random layout (:func:`scene_layers`), the poles ``nearer`` times as
-    near as the background: they move ``nearer`` times the camera's displacement.
+    near as the background: they move ``nearer`` times the camera's displacement. They
+    stand ``gap`` (least, most) apart, in pixels of a frame 640 wide.
     """
     w, h = size
     rng = np.random.default_rng(3)
@@ -152,7 +154,7 @@ def pole_layers(camera: Callable[[np.ndarray], np.ndarray], size: tuple[int, int
         alpha = np.zeros((h + 40, width + 2), np.float32)
         alpha[:, 1:-1] = 1.0
         poles.append(Layer(image, alpha, (x, -20.0), lambda t: nearer * camera(t)))
-        x += w * rng.uniform(120, 260) / 640
+        x += w * rng.uniform(*gap) / 640
     return poles
 
 

@@ -1,0 +1,277 @@
+"""An object's rigid motion, imaged one scanline at a time, scored against its neighbours.
+
+What :mod:`unjello.motion.spin` fits to an object the flow failed on -- a rotation, or a
+velocity of its own (:func:`fit_drift`: a near pole passing in front faster than the
+scene behind it) -- is scored here: each candidate predicts where every pixel of the
+object appears in a neighbouring frame, solved per pixel for the scanline that images it
+there (the paper's eq. 10 timing), and the truncated grey-level difference with what
+that frame shows there is its cost (:func:`costs`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+__all__ = ["Spin", "Track", "carried", "costs", "fit_drift", "prepare", "rotate",
+           "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
+
+#: Grey-level difference at which the match cost saturates (an occluded or
+#: mis-modelled pixel costs no more than this).
+TRUNCATE = 40.0
+#: A pixel the surroundings' motion leaves at least this far from its neighbours (grey
+#: levels) belongs to the object; only such pixels score a rotation.
+MOVING = 10.0
+#: Grey levels added to a drift's cost per pixel a frame interval of the shrunk copy
+#: (:func:`fit_drift`): among drifts that match alike, the slowest.
+DRIFT_PENALTY = 1.0
+
+Track = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Spin:
+    """A rigid rotation fitted to a region of one frame.
+
+    Attributes
+    ----------
+    centre : ndarray of shape (2,)
+        Centre ``C(t_ref)`` (x, y) in the frame's pixels at its reference time.
+    omega : float
+        Angular velocity, radians per frame interval (positive: clockwise on screen,
+        from +x towards +y).
+    cost : float
+        Mean truncated absolute difference of the region's pixels and where the rotation
+        puts them in the neighbouring frames (grey levels).
+    still_cost : float
+        The same with no rotation: the region moving with its surroundings. Both are
+        measured on the pixels that the surroundings' motion does not explain.
+    drift : ndarray of shape (2,)
+        The object's own velocity (px per frame interval) on top of its surroundings':
+        non-zero for an object moving on its own (:func:`fit_drift`; a near pole passing
+        in front, ``omega`` 0), zero for a rotation.
+    """
+
+    centre: np.ndarray
+    omega: float
+    cost: float
+    still_cost: float
+    drift: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    @property
+    def gain(self) -> float:
+        """How much better the rotation explains the region than no rotation (ratio)."""
+        return self.still_cost / max(self.cost, 1e-6)
+
+
+def rotate(v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v`` (..., 2) by angles ``a`` (radians, from +x towards +y)."""
+    c, s = np.cos(a), np.sin(a)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def carried(track: Track, drift: np.ndarray) -> Track:
+    """Return ``track`` with a constant velocity ``drift`` (px per frame interval) added."""
+    if not np.any(drift):
+        return track
+    v = np.asarray(drift, np.float64)
+    return lambda t: np.asarray(track(t), np.float64) + np.asarray(t, np.float64)[..., None] * v
+
+
+def at(track: Track, t: np.ndarray) -> np.ndarray:
+    """``track`` at times of any shape: shape ``t.shape + (2,)``."""
+    t = np.asarray(t, np.float64)
+    return np.asarray(track(t.ravel()), np.float64).reshape(t.shape + (2,))
+
+
+def predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndarray,
+             track: Track, t_ref: float, offset: float, row_time: float,
+             iterations: int = 5, drift: np.ndarray | None = None) -> np.ndarray:
+    """Where points ``pts`` (n, 2), imaged at ``t_s``, appear in a frame starting at ``offset``.
+
+    For every rotation of ``omega`` (m,) about ``centre`` (m, 2), carried by ``track``
+    plus its own ``drift`` (m, 2; none: zero), at once: shape (m, n, 2).
+    The point's scanline in that frame fixes the time it is imaged there, which fixes
+    where it is: solved by iterating ``t' = offset + row_time * y'`` (converges while the
+    object's rim moves less than a row per row of readout).
+    """
+    z = pts[:, 0] + 1j * pts[:, 1]
+    cz = centre[:, 0] + 1j * centre[:, 1]
+    dz = (np.zeros(len(cz)) if drift is None else drift[:, 0] + 1j * drift[:, 1])[:, None]
+    c_ref = at(track, np.array(t_ref)) @ (1, 1j) + dz * t_ref
+    rel = z[None] - (cz[:, None] + at(track, t_s)[None] @ (1, 1j) + dz * t_s[None] - c_ref)
+    t_o = np.broadcast_to(offset + row_time * pts[None, :, 1], rel.shape)
+    for _ in range(iterations):
+        q = cz[:, None] + at(track, t_o) @ (1, 1j) + dz * t_o - c_ref + rel * np.exp(
+            1j * omega[:, None] * (t_o - t_s[None]))
+        t_o = offset + row_time * q.imag
+    return np.stack([q.real, q.imag], axis=-1)
+
+
+def sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Sample ``image`` bilinearly at points of any shape.
+
+    The maps are folded into rows of 1024, under OpenCV's 32767-column limit.
+    """
+    n = x.size
+    cols = 1024
+    pad = -n % cols
+    mx = np.concatenate([x.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
+    my = np.concatenate([y.ravel(), np.zeros(pad)]).astype(np.float32).reshape(-1, cols)
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.ravel()[:n].reshape(x.shape)
+
+
+def costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np.ndarray,
+           centre: np.ndarray, omega: np.ndarray, track: Track, t_ref: float,
+           row_time: float, iterations: int = 5, drift: np.ndarray | None = None
+           ) -> np.ndarray:
+    """Return each point's truncated difference with its predictions, shape (m, n).
+
+    Averaged over the neighbours in which the point is predicted inside the frame.
+    """
+    h, w = image.shape
+    t_s = row_time * pts[:, 1]
+    own = sample(image, pts[:, 0], pts[:, 1])
+    total = np.zeros((len(omega), len(pts)))
+    seen = np.zeros_like(total)
+    for other, offset in others:
+        q = predict(pts, t_s, centre, omega, track, t_ref, offset, row_time, iterations,
+                     drift)
+        val = sample(other, q[..., 0], q[..., 1])
+        inside = ((q[..., 0] >= 0) & (q[..., 0] <= w - 1) & (q[..., 1] >= 0)
+                  & (q[..., 1] <= h - 1))
+        total += np.where(inside, np.minimum(np.abs(val - own[None]), TRUNCATE), 0.0)
+        seen += inside
+    return np.where(seen > 0, total / np.maximum(seen, 1), TRUNCATE)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A region made ready to score motions on: its points, and a shrunk copy."""
+
+    centroid: np.ndarray  # at the reference time
+    radius: float
+    scale: np.ndarray  # the shrunk copy's size over the frame's (x, y)
+    small: np.ndarray  # the frame, shrunk
+    sothers: list[tuple[np.ndarray, float]]  # the neighbours, shrunk
+    strack: Track  # the surroundings' motion in the shrunk copy's pixels
+    spts: np.ndarray  # up to 300 moving points of the shrunk copy
+    fine: np.ndarray  # up to 1500 moving points at full size
+
+
+def prepare(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+             region: np.ndarray, track: Track, t_ref: float, readout: float,
+             coarse_radius: float) -> Prepared | None:
+    """Shrink the frame until ``region``'s radius is about ``coarse_radius``; pick points.
+
+    Only the points the surroundings' motion does not explain (:data:`MOVING`) score a
+    motion: the object, not the background seen through it. None when the region is too
+    small (under 200 px, a radius under 8 px), nothing moves against the surroundings, or
+    there is no neighbour.
+    """
+    h, w = image.shape
+    ys, xs = np.nonzero(region)
+    if len(xs) < 200 or not others:
+        return None
+    pts = np.stack([xs, ys], axis=1).astype(np.float64)
+    centroid = pts.mean(axis=0)
+    radius = float(np.percentile(np.linalg.norm(pts - centroid, axis=1), 95))
+    if radius < 8:
+        return None
+    # The centroid is where the object was at its mean scanline's time; at t_ref:
+    centroid = (centroid - at(track, np.array(readout / h * centroid[1]))
+                + at(track, np.array(t_ref)))
+
+    def moving(img: np.ndarray, oth: list, p: np.ndarray, trk: Track, rt: float
+               ) -> np.ndarray:
+        still = costs(img, oth, p, np.zeros((1, 2)), np.zeros(1), trk, t_ref, rt)[0]
+        return p[still >= MOVING]
+
+    f = max(1.0, radius / coarse_radius)
+    size = (max(8, round(w / f)), max(8, round(h / f)))
+    small = [cv2.resize(im, size, interpolation=cv2.INTER_AREA) for im in (image, *[
+        o for o, _ in others])]
+    sreg = cv2.resize(region.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
+    sy, sx = np.nonzero(sreg)
+    scale = np.array([size[0] / w, size[1] / h])
+    strack: Track = lambda t: np.asarray(track(t)) * scale  # noqa: E731
+    sothers = [(o, off) for o, (_, off) in zip(small[1:], others, strict=True)]
+    spts = moving(small[0], sothers, np.stack([sx, sy], axis=1).astype(np.float64),
+                  strack, readout / size[1])
+    fine = moving(image, list(others), pts[::max(1, len(pts) // 6000)], track, readout / h)
+    if len(spts) < 30 or len(fine) < 100:
+        return None
+    return Prepared(centroid, radius, scale, small[0], sothers, strack,
+                     spts[::max(1, len(spts) // 300)], fine[::max(1, len(fine) // 1500)])
+
+
+def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+              region: np.ndarray, track: Track, t_ref: float, readout: float, *,
+              max_drift: float | None = None, coarse_radius: float = 16.0,
+              min_gain: float = 1.15) -> Spin | None:
+    """Fit ``region`` a velocity of its own on top of its surroundings': a near object.
+
+    A pole passing close in front of the camera moves faster than the scene behind it
+    (parallax) and, flat and thin, can move too far between frames for the flow to follow
+    it; it is then no spinner, but a rigid object translating -- imaged one scanline at a
+    time like the camera's motion, carried by ``track`` plus a constant ``drift``. Every
+    drift up to ``max_drift`` (px per frame interval, either way on both axes; None: a
+    sixth of the width) is scored on the shrunk copy (:func:`prepare`), as
+    :func:`~unjello.motion.spin.fit_spin` scores rotations; the best two are refined at
+    full size by a shrinking pattern search.
+
+    Returns
+    -------
+    Spin or None
+        ``omega`` 0 and the fitted :attr:`Spin.drift`; None as :func:`prepare`, or when
+        no drift on the shrunk copy explains the region ``min_gain`` times better than
+        none (it is not refined then: a spinner is no drift).
+    """
+    prep = prepare(image, others, region, track, t_ref, readout, coarse_radius)
+    if prep is None:
+        return None
+    h, w = image.shape
+    reach = (w / 6 if max_drift is None else max_drift) * prep.scale
+    gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0]), np.ceil(reach[0]) + 1),
+                         np.arange(-np.ceil(reach[1]), np.ceil(reach[1]) + 1))
+    grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    centre = np.repeat((prep.centroid * prep.scale)[None], len(grid), 0)
+    spts = prep.spts[::max(1, len(prep.spts) // 120)]
+    # A flat object moving along itself looks the same (the aperture problem): of drifts
+    # that match alike, the slowest wins, by DRIFT_PENALTY grey levels a shrunk pixel.
+    raw = costs(prep.small, prep.sothers, spts, centre, np.zeros(len(grid)), prep.strack,
+                t_ref, readout / prep.small.shape[0], iterations=2, drift=grid).mean(axis=1)
+    if raw.min() * min_gain > raw[np.flatnonzero((gx == 0) & (gy == 0))[0]]:
+        return None  # no drift explains it much better than its surroundings' motion
+    scores = raw + DRIFT_PENALTY * np.hypot(gx, gy).ravel()
+
+    fine = prep.fine[::max(1, len(prep.fine) // 500)]
+
+    def cost(v: np.ndarray, penalty: float = DRIFT_PENALTY) -> float:
+        return float(costs(image, others, fine, prep.centroid[None], np.zeros(1), track,
+                            t_ref, readout / h, iterations=3, drift=v[None]).mean()
+                     ) + penalty * float(np.hypot(*(v * prep.scale)))
+
+    step0 = 0.5 / float(prep.scale.min())  # half a pixel of the shrunk copy
+    results = []
+    for i in np.argsort(scores)[:2]:
+        v = grid[i] / prep.scale
+        best = cost(v)
+        step = step0
+        while step >= 0.25:
+            moved = True
+            while moved:
+                moved = False
+                for dv in ((step, 0.0), (-step, 0.0), (0.0, step), (0.0, -step)):
+                    c = cost(v + dv)
+                    if c < best:
+                        best, v, moved = c, v + np.array(dv), True
+            step /= 2
+        results.append((best, v))
+    v = min(results, key=lambda r: r[0])[1]
+    return Spin(centre=prep.centroid, omega=0.0, cost=cost(v, 0.0),
+                still_cost=cost(np.zeros(2)), drift=v)

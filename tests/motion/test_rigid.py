@@ -1,0 +1,86 @@
+"""An object's own rigid motion: a near pole the flow cannot follow is fitted its drift."""
+
+import cv2
+import numpy as np
+import pytest
+from skimage import data
+
+from unjello.motion.rigid import Spin, carried, fit_drift
+from unjello.motion.spin import keep_spinning, spin_field, spin_source
+from unjello.simulate import Motion, pole_layers, simulate
+from unjello.timing import SensorTiming
+
+W, H = 320, 180
+NEAR = 1.3  # the poles move 1.3 times the background: 0.3 x 80 = 24 px a frame of their own
+
+
+@pytest.fixture(scope="module")
+def poles():
+    """A pan of a quarter of the width a frame, readout 1.0, flat poles in front."""
+    motion = Motion("pan", speed=0.25 * W)
+    d = motion(np.linspace(-1.0, 6.0, 64))[:, 0]
+    layers = pole_layers(motion, (W, H), (float(d.min()), float(d.max())), NEAR)
+    sim = list(simulate(data.astronaut(), motion, SensorTiming(1.0), 5, size=(W, H),
+                        layers=layers))
+    grey = [cv2.cvtColor(s.rolling.astype(np.uint8), cv2.COLOR_RGB2GRAY).astype(np.float32)
+            for s in sim]
+    return motion, sim, grey
+
+
+def _biggest_pole(layer: np.ndarray) -> np.ndarray:
+    ids, counts = np.unique(layer[layer > 0], return_counts=True)
+    return layer == ids[np.argmax(counts)]
+
+
+def test_the_drift_of_a_pole_is_its_own_velocity(poles):
+    """Measured: drift (24.2, 0.0) px a frame (truth 24.0, 0.0), gain 14-30 over the
+    surroundings' motion; its correction within 0.3 px of the truth on the pole."""
+    motion, sim, g = poles
+    k = 2
+    pole = _biggest_pole(sim[k].layer)
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    spin = fit_drift(g[k], [(g[k - 1], -1.0), (g[k + 1], 1.0)], pole, track, 0.5, 1.0)
+    assert spin is not None and spin.omega == 0.0
+    assert spin.drift == pytest.approx([(NEAR - 1) * 0.25 * W, 0.0], abs=1.0)
+    assert spin.gain > 5
+    field = spin_field(spin, g[k].shape, track, 0.5, 1.0)
+    truth = sim[k].motion.pixel_displacement(W)  # per pixel: the pole's own on the pole
+    err = np.linalg.norm(field - truth, axis=-1)[pole].mean()
+    assert err < 0.3 * np.linalg.norm(truth, axis=-1)[pole].mean() / 10, err
+
+def test_a_pole_is_no_spinner(poles):
+    """The failed pole, seeded as a spinner candidate, is carried by its drift and drawn
+    upright in front: no rotation is used."""
+    motion, sim, g = poles
+    k = 2
+    pole = _biggest_pole(sim[k].layer)
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    field = np.zeros((H, W, 2), np.float32)
+    _, spins, weight, candidates, fronts = keep_spinning(
+        field, g[k], [(g[k - 1], -1.0), (g[k + 1], 1.0)], pole, track, 0.5, 1.0)
+    assert spins and all(s.omega == 0.0 for s in spins) and not candidates
+    assert len(fronts) == len(spins) and weight[pole].mean() > 0.8
+
+
+def test_a_drifting_source_inverts_its_correction():
+    """spin_source is spin_field's inverse for a drift too: p + B(p) = s."""
+    def track(t):
+        return np.stack([30.0 * np.asarray(t), np.zeros_like(t)], axis=-1)
+
+    spin = Spin(np.array([50.0, 40.0]), 0.0, 1.0, 5.0, drift=np.array([12.0, -3.0]))
+    shape = (80, 100)
+    forward = spin_field(spin, shape, track, 0.5, 0.9)
+    backward = spin_source(spin, shape, track, 0.5, 0.9)
+    ys, xs = np.mgrid[20:60, 20:80]
+    p = np.stack([xs, ys], -1) - forward[20:60, 20:80]
+    px, py = p[..., 0].astype(np.float32), p[..., 1].astype(np.float32)
+    back = np.dstack([cv2.remap(backward[..., i], px, py, cv2.INTER_LINEAR) for i in (0, 1)])
+    assert np.abs(p + back - np.stack([xs, ys], -1)).max() < 0.05
+    moved = carried(track, spin.drift)(np.array([0.0, 1.0]))
+    assert moved[1] - moved[0] == pytest.approx([42.0, -3.0])
