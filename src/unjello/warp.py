@@ -573,12 +573,16 @@ def _unseen_rows(displacement: np.ndarray, w: int) -> float:
     return float(cols.sum()) / (h * w)
 
 
-def _outside_share(maps: tuple[np.ndarray, np.ndarray]) -> float:
-    """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge."""
-    mx, my = maps
-    h, w = mx.shape
+def _outside_share(maps: tuple[np.ndarray, np.ndarray], step: int = 8) -> float:
+    """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge.
+
+    Counted on every ``step``-th pixel of every ``step``-th row (a 1080p frame's maps
+    whole: 10 ms).
+    """
+    h, w = maps[0].shape
+    mx, my = (np.ascontiguousarray(m[step // 2::step, step // 2::step]) for m in maps)
     inside = cv2.bitwise_and(cv2.inRange(mx, -0.5, w - 0.5), cv2.inRange(my, -0.5, h - 0.5))
-    return 1.0 - cv2.countNonZero(inside) / float(h * w)
+    return 1.0 - cv2.countNonZero(inside) / float(mx.size)
 
 
 def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:

@@ -67,7 +67,14 @@ from .flow import (
     optical_flow,
     row_flows,
 )
-from .vibration import PROBE_CONTRAST, PROBE_WAIT, VIBRATION, detect_vibration, sinusoid_pursuit
+from .vibration import (
+    PROBE_CONTRAST,
+    PROBE_WAIT,
+    VIBRATION,
+    detect_vibration,
+    sinusoid_pursuit,
+    textured,
+)
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
@@ -210,8 +217,9 @@ class DenseMethod(SafeField):
             self._equations.append((cur.index, self._row_equations(prev, cur)))
             if not self._decided and min(prev.contrast, cur.contrast) >= PROBE_CONTRAST:
                 # Rows of each half, for the vibration test (frames too flat to give
-                # flow, as in a fade from black, would wobble with their noise).
-                self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok))
+                # flow, as in a fade from black, would wobble with their noise), of
+                # two-dimensional texture only (:func:`textured`).
+                self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok & textured(cur.image)))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
