@@ -104,9 +104,10 @@ def predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndar
     c_ref = at(track, np.array(t_ref)) @ (1, 1j) + dz * t_ref
     rel = z[None] - (cz[:, None] + at(track, t_s)[None] @ (1, 1j) + dz * t_s[None] - c_ref)
     t_o = np.broadcast_to(offset + row_time * pts[None, :, 1], rel.shape)
+    turning = bool(np.any(omega))  # drifts alone: no rotation to apply
     for _ in range(iterations):
-        q = cz[:, None] + at(track, t_o) @ (1, 1j) + dz * t_o - c_ref + rel * np.exp(
-            1j * omega[:, None] * (t_o - t_s[None]))
+        q = cz[:, None] + at(track, t_o) @ (1, 1j) + dz * t_o - c_ref + (rel * np.exp(
+            1j * omega[:, None] * (t_o - t_s[None])) if turning else rel)
         t_o = offset + row_time * q.imag
     return np.stack([q.real, q.imag], axis=-1)
 
