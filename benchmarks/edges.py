@@ -19,8 +19,9 @@ global-shutter truth of:
 for the input and the default correction; the displacement error of the correction
 against the truth (relative to none); the median bend of the upright poles within 30 px
 of a side, in the input and the output (:func:`pole_bends`; px; a pole torn apart counts
-as its width plus 20 px), and how many of them are straight within 1 px; the share of
-pixels none saw, true / as the run reports it (``unseen``, ``correct --json``).
+as its width plus 20 px), how many of them are straight within 1 px, and the share of
+their rows within 1 px; the share of pixels none saw, true / as the run reports it
+(``unseen``, ``correct --json``).
 
 Usage::
 
@@ -80,14 +81,21 @@ def strip_masks(sim: list, timing: SensorTiming) -> list[tuple[np.ndarray, ...]]
 
 
 def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
-               side: int = SIDE) -> list[float]:
+               side: int = SIDE) -> list[tuple[float, float]]:
     """How far each upright pole within ``side`` px of a side strays in ``image`` (px).
 
     A pole is found in the global-shutter ``truth`` as the columns whose every row shows
     its flat colour (within 12 levels); in ``image``, per row, the mean column of that
-    colour within the pole's width plus 20 px either side of it. The pole's bend is the
-    largest distance of a row's mean from the truth's; a row where the colour is not
-    found there at all counts as the pole's width plus 20 px (torn).
+    colour within the pole's width plus 20 px either side of it. Only rows where the
+    truth shows that colour nowhere else in that window are scored (a dark pole before a
+    dark background is not). A row where the colour is not found at all counts as the
+    pole's width plus 20 px (torn).
+
+    Returns
+    -------
+    list of (float, float)
+        Per pole: the largest distance of a scored row's mean from the truth's, and the
+        share of its scored rows within 1 px.
     """
     h, w = truth.shape[:2]
     out = []
@@ -101,12 +109,18 @@ def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
             continue  # not near a side, or cut by the frame's edge
         reach = int(cols[-1] - cols[0]) // 2 + 20
         lo, hi = max(0, int(centre) - reach), min(w, int(centre) + reach + 1)
+        own = np.zeros(hi - lo, bool)
+        own[cols[0] - lo:cols[-1] - lo + 1] = True
+        clean = ~hit[:, lo:hi][:, ~own].any(axis=1)
+        clean[:MARGIN] = clean[h - MARGIN:] = False
+        if clean.sum() < h // 2:
+            continue  # its colour is all around it
         found = np.abs(image[:, lo:hi].astype(np.int16) - colour).max(axis=-1) <= 12
         x = np.arange(lo, hi, dtype=np.float64)
         count = found.sum(axis=1)
-        rows = np.where(count > 0, (found * x).sum(axis=1) / np.maximum(count, 1) - centre,
-                        reach)
-        out.append(float(np.abs(rows[MARGIN:h - MARGIN]).max()))
+        rows = np.abs(np.where(count > 0, (found * x).sum(axis=1) / np.maximum(count, 1)
+                               - centre, reach))[clean]
+        out.append((float(rows.max()), float(np.mean(rows <= 1.0))))
     return out
 
 
@@ -146,8 +160,9 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
     for tag, images in (("in", rolling), ("out", out)):
         bends = [b for o, s in zip(images, sim, strict=True)
                  for b in pole_bends(o, s.truth, colours)]
-        row[f"{tag}_bend"] = float(np.median(bends)) if bends else float("nan")
-        row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b in bends)}/{len(bends)}"
+        row[f"{tag}_bend"] = float(np.median([b for b, _ in bends])) if bends else float("nan")
+        row[f"{tag}_rows"] = float(np.mean([r for _, r in bends])) if bends else float("nan")
+        row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b, _ in bends)}/{len(bends)}"
                                   if bends else "-")
     row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
     row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
@@ -170,7 +185,8 @@ def main() -> None:
           "default; the strip seen by the previous frame, by the next, by none")
     print(f"{'scene':10} {'kind':5} {'speed':>5} {'rho':>4} {'strip%':>6} "
           f"{'strip: prev':>15} {'next':>15} {'none':>15} {'interior':>15} {'frame':>15} "
-          f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'none%':>11} {'cpu s/f':>7}")
+          f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'rows <= 1 px':>14} "
+          f"{'none%':>11} {'cpu s/f':>7}")
     for scene in args.scenes.split(","):
         for frac, readout in SPEEDS:
             for kind, frames in (("clip", 10), ("pair", 2)):
@@ -186,6 +202,7 @@ def main() -> None:
                       f"{pair('unseen'):>15} {pair('interior'):>15} {pair('frame'):>15} "
                       f"{r['ratio']:6.3f} {pair('bend'):>14} "
                       f"{r['in_straight'] + ' -> ' + r['out_straight']:>11} "
+                      f"{pair('rows'):>14} "
                       f"{100 * r['unseen_true']:4.1f}/{100 * r['unseen_said']:4.1f}  "
                       f"{r['cpu_s']:7.2f}", flush=True)
 
