@@ -301,6 +301,7 @@ def test_textureless_video_is_handled(tmp_path):
     assert res.returncode == 0, res.stderr
     doc = json.loads(res.stdout)
     assert doc["frames"] == 4 and doc["folded_frames"] == [] and doc["folds"] == [0.0] * 4
+    assert doc["unseen"] == [0.0] * 4  # nothing moved: nothing beyond the edge
     # Nothing to see, nothing moved: every scanline stays where it is.
     frames = Trajectory.load(tmp_path / "m.json").frames
     assert max(np.abs(f.displacement).max() for f in frames) < 0.05
