@@ -21,7 +21,8 @@ against the truth (relative to none); the median bend of the upright poles withi
 of a side, in the input and the output (:func:`pole_bends`; px; a pole torn apart counts
 as its width plus 20 px), how many of them are straight within 1 px, and the share of
 their rows within 1 px; the share of pixels none saw, true / as the run reports it
-(``unseen``, ``correct --json``).
+(``unseen``, ``correct --json``); and the frames whose correction still folds or tears
+more than ``FOLD_WARNING`` of the picture (the run's warning).
 
 Usage::
 
@@ -37,6 +38,7 @@ import numpy as np
 from skimage import data
 
 from unjello.metrics import displacement_error
+from unjello.motion.dense import FOLD_WARNING
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, pole_layers, simulate
 from unjello.timing import SensorTiming
@@ -164,6 +166,7 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
         row[f"{tag}_rows"] = float(np.mean([r for _, r in bends])) if bends else float("nan")
         row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b, _ in bends)}/{len(bends)}"
                                   if bends else "-")
+    row["folded"] = f"{sum(f.folds > FOLD_WARNING for f in traj.frames)}/{len(traj.frames)}"
     row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
     row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
     row["strip_share"] = float(np.mean([(m[0] | m[1] | m[2]).mean() for m in masks]))
@@ -186,7 +189,7 @@ def main() -> None:
     print(f"{'scene':10} {'kind':5} {'speed':>5} {'rho':>4} {'strip%':>6} "
           f"{'strip: prev':>15} {'next':>15} {'none':>15} {'interior':>15} {'frame':>15} "
           f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'rows <= 1 px':>14} "
-          f"{'none%':>11} {'cpu s/f':>7}")
+          f"{'none%':>11} {'folded':>6} {'cpu s/f':>7}")
     for scene in args.scenes.split(","):
         for frac, readout in SPEEDS:
             for kind, frames in (("clip", 10), ("pair", 2)):
@@ -204,6 +207,7 @@ def main() -> None:
                       f"{r['in_straight'] + ' -> ' + r['out_straight']:>11} "
                       f"{pair('rows'):>14} "
                       f"{100 * r['unseen_true']:4.1f}/{100 * r['unseen_said']:4.1f}  "
+                      f"{r['folded']:>6} "
                       f"{r['cpu_s']:7.2f}", flush=True)
 
 
