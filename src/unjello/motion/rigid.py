@@ -25,9 +25,13 @@ TRUNCATE = 40.0
 #: A pixel the surroundings' motion leaves at least this far from its neighbours (grey
 #: levels) belongs to the object; only such pixels score a rotation.
 MOVING = 10.0
-#: Grey levels added to a drift's cost per pixel a frame interval of the shrunk copy
-#: (:func:`fit_drift`): among drifts that match alike, the slowest.
-DRIFT_PENALTY = 1.0
+#: A drift's cost is raised by this share of itself at the search's reach, in proportion
+#: to its speed (:func:`fit_drift`): among drifts that match alike, the slowest.
+DRIFT_PENALTY = 0.15
+#: The drifts searched on the shrunk copy are at most this many a side (then further
+#: apart than its pixels, on a copy blurred to match: a small object's own copy is barely
+#: shrunk, and a grid a pixel apart up to a sixth of the width held 26 000 drifts).
+GRID_SIDE = 41
 
 Track = Callable[[np.ndarray], np.ndarray]
 
@@ -237,27 +241,37 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         return None
     h, w = image.shape
     reach = (w / 6 if max_drift is None else max_drift) * prep.scale
-    gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0]), np.ceil(reach[0]) + 1),
-                         np.arange(-np.ceil(reach[1]), np.ceil(reach[1]) + 1))
+    # At most GRID_SIDE drifts a side; a coarser step searches a copy blurred to match.
+    step = float(max(1, np.ceil(2 * reach.max() / GRID_SIDE)))
+    small, others_s = prep.small, prep.sothers
+    if step > 1:
+        def blur(im: np.ndarray) -> np.ndarray:
+            return cv2.GaussianBlur(im, (0, 0), step / 2)
+
+        small, others_s = blur(small), [(blur(o), off) for o, off in others_s]
+    gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0] / step), np.ceil(reach[0] / step) + 1),
+                         np.arange(-np.ceil(reach[1] / step), np.ceil(reach[1] / step) + 1))
+    gx, gy = gx * step, gy * step
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     centre = np.repeat((prep.centroid * prep.scale)[None], len(grid), 0)
     spts = prep.spts[::max(1, len(prep.spts) // 120)]
     # A flat object moving along itself looks the same (the aperture problem): of drifts
-    # that match alike, the slowest wins, by DRIFT_PENALTY grey levels a shrunk pixel.
-    raw = costs(prep.small, prep.sothers, spts, centre, np.zeros(len(grid)), prep.strack,
+    # that match alike, the slowest wins (DRIFT_PENALTY of the cost at the reach).
+    raw = costs(small, others_s, spts, centre, np.zeros(len(grid)), prep.strack,
                 t_ref, readout / prep.small.shape[0], iterations=2, drift=grid).mean(axis=1)
     if raw.min() * min_gain > raw[np.flatnonzero((gx == 0) & (gy == 0))[0]]:
         return None  # no drift explains it much better than its surroundings' motion
-    scores = raw + DRIFT_PENALTY * np.hypot(gx, gy).ravel()
+    far = float(np.hypot(*reach))
+    scores = raw * (1 + DRIFT_PENALTY * np.hypot(gx, gy).ravel() / far)
 
     fine = prep.fine[::max(1, len(prep.fine) // 500)]
 
     def cost(v: np.ndarray, penalty: float = DRIFT_PENALTY) -> float:
         return float(costs(image, others, fine, prep.centroid[None], np.zeros(1), track,
                             t_ref, readout / h, iterations=3, drift=v[None]).mean()
-                     ) + penalty * float(np.hypot(*(v * prep.scale)))
+                     ) * (1 + penalty * float(np.hypot(*(v * prep.scale))) / far)
 
-    step0 = 0.5 / float(prep.scale.min())  # half a pixel of the shrunk copy
+    step0 = step / 2 / float(prep.scale.min())  # half the grid's step
     results = []
     for i in np.argsort(scores)[:2]:
         v = grid[i] / prep.scale
