@@ -226,8 +226,9 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     time like the camera's motion, carried by ``track`` plus a constant ``drift``. Every
     drift up to ``max_drift`` (px per frame interval, either way on both axes; None: a
     sixth of the width) is scored on the shrunk copy (:func:`prepare`), as
-    :func:`~unjello.motion.spin.fit_spin` scores rotations; the best two are refined at
-    full size by a shrinking pattern search.
+    :func:`~unjello.motion.spin.fit_spin` scores rotations -- at most :data:`GRID_SIDE` a
+    side, further apart than its pixels on a copy blurred to match; the best two are
+    refined at full size by a shrinking pattern search.
 
     Returns
     -------
@@ -271,21 +272,20 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
                             t_ref, readout / h, iterations=3, drift=v[None]).mean()
                      ) * (1 + penalty * float(np.hypot(*(v * prep.scale))) / far)
 
-    step0 = step / 2 / float(prep.scale.min())  # half the grid's step
     results = []
     for i in np.argsort(scores)[:2]:
         v = grid[i] / prep.scale
         best = cost(v)
-        step = step0
-        while step >= 0.25:
+        move = step / 2 / float(prep.scale.min())  # half the grid's step, full-size px
+        while move >= 0.25:
             moved = True
             while moved:
                 moved = False
-                for dv in ((step, 0.0), (-step, 0.0), (0.0, step), (0.0, -step)):
+                for dv in ((move, 0.0), (-move, 0.0), (0.0, move), (0.0, -move)):
                     c = cost(v + dv)
                     if c < best:
                         best, v, moved = c, v + np.array(dv), True
-            step /= 2
+            move /= 2
         results.append((best, v))
     v = min(results, key=lambda r: r[0])[1]
     return Spin(centre=prep.centroid, omega=0.0, cost=cost(v, 0.0),
