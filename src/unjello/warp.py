@@ -501,15 +501,16 @@ class PictureWarper:
             tb = to_top_bottom(plane, d)
             ph, pw = tb.shape[:2]
             scale = plane.shape[1] / planes[0].shape[1]  # chroma: the lens in its pixels
-            if i == 0 and maps is None and (self.warp == "splat" or (
-                    self.undistort is None and motion.reframe.identity)):
-                self.unseen = _unseen_rows(motion.displacement, w)
-            if maps is None and self.warp == "splat":
-                res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
-                if self.undistort is not None:  # a forward splat: a second resampling
-                    res = apply_maps(res, self._lens(ph, pw, scale))
-            elif maps is None and self.undistort is None and motion.reframe.identity:
-                res = shift_planes(tb, _plane_displacement(motion, ph, pw, h, w), fill)
+            if maps is None and (self.warp == "splat" or (
+                    self.undistort is None and motion.reframe.identity)):  # per scanline
+                if i == 0:
+                    self.unseen = _unseen_rows(motion.displacement, w)
+                if self.warp == "splat":
+                    res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
+                    if self.undistort is not None:  # a forward splat: a second resampling
+                        res = apply_maps(res, self._lens(ph, pw, scale))
+                else:
+                    res = shift_planes(tb, _plane_displacement(motion, ph, pw, h, w), fill)
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (

@@ -210,12 +210,17 @@ class SafeField:
         if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
             return field, folds, 0.0, "", ()
         spun = float(spun_px.mean())
-        turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in spins if s.omega)
-        drifts = ", ".join(f"{np.hypot(*s.drift):.0f}" for s in spins if not s.omega)
-        notes = ([f"{len(turns.split(','))} spinning object(s) turned back by a rotation "
-                  f"fitted per scanline ({turns} turns per frame)"] if turns else []) + (
-            [f"{len(drifts.split(','))} object(s) moving on their own carried by a velocity "
-             f"fitted per scanline ({drifts} px per frame against the motion around them)"]
-            if drifts else [])
+        turning = [s for s in spins if s.omega]
+        drifting = [s for s in spins if not s.omega]
+        notes = []
+        if turning:
+            turns = ", ".join(f"{s.omega / (2 * np.pi):+.2f}" for s in turning)
+            notes.append(f"{len(turning)} spinning object(s) turned back by a rotation "
+                         f"fitted per scanline ({turns} turns per frame)")
+        if drifting:
+            speeds = ", ".join(f"{np.hypot(*s.drift):.0f}" for s in drifting)
+            notes.append(f"{len(drifting)} object(s) moving on their own carried by a "
+                         f"velocity fitted per scanline ({speeds} px per frame against the "
+                         "motion around them)")
         return spinning, after, spun, (
             f"{'; '.join(notes)}: {100 * spun:.0f}% of the picture"), fronts

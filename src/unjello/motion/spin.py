@@ -37,8 +37,8 @@ import numpy as np
 from .rigid import MOVING, Spin, Track, at, carried, costs, fit_drift, prepare, rotate
 from .safety import fill_hull
 
-__all__ = ["Spin", "fit_spin", "fit_drift", "carried", "spin_field", "spin_source",
-           "spin_support", "spin_regions", "keep_spinning", "MAX_SPIN", "WHOLE"]
+__all__ = ["Spin", "fit_spin", "spin_field", "spin_source", "spin_support", "spin_regions",
+           "keep_spinning", "MAX_SPIN", "WHOLE"]
 
 #: The search covers rotations up to this many radians per frame interval either way
 #: (two turns: 60 rev/s at 30 fps).
