@@ -255,11 +255,9 @@ def planes_frame(planes: list[np.ndarray], fmt: str) -> av.VideoFrame:
     """Build a frame of pixel format ``fmt`` from plane arrays."""
     h, w = planes[0].shape
     frame = av.VideoFrame(w, h, fmt)
-    for p, a in zip(frame.planes, planes, strict=True):
-        stride = p.line_size // a.itemsize
-        buf = np.zeros((p.height, stride), dtype=a.dtype)
-        buf[:, :p.width] = a
-        p.update(buf.tobytes())
+    for p, a in zip(frame.planes, planes, strict=True):  # one copy, into the frame's buffer
+        buf = np.frombuffer(memoryview(p), dtype=a.dtype)
+        buf.reshape(p.height, p.line_size // a.itemsize)[:, :p.width] = a
     return frame
 
 
