@@ -61,7 +61,7 @@ def test_a_whip_pan_over_grass_is_followed_not_aliased():
 def test_small_motion_is_plain_dis():
     """The second start never fires below LARGE_MOTION: the flow is DIS's own."""
     scene = _textured()
-    a, b = scene[:, 20:340], scene[:, :320]  # 6 % of the width
+    a, b = scene[:, 10:330], scene[:, :320]  # 3 % of the width
     dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
     dis.setFinestScale(0)
     dis.setVariationalRefinementIterations(1)

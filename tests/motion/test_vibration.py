@@ -79,8 +79,10 @@ def test_a_pan_over_flat_sky_behind_poles_is_not_vibration():
     frame, readout 0.4, flat poles 1.3x as near passing in front. The sky rows' only
     edges are the poles' upright ones, whose vertical flow is filled in: probed with them
     the rows wobbled 1.39 % of the height, the clip was corrected as vibration and came
-    out 12.2x worse than uncorrected (89-99 % of each frame on a wild trajectory).
-    Measured now: no vibration, 1.03x."""
+    out 12.2x worse than uncorrected (89-99 % of each frame on a wild trajectory); then no
+    vibration, but 1.03x: DIS from zero followed the poles' edges and lost the pan in the
+    sky rows (5 px of 32 a frame), below the 12 % a frame that started a second run from
+    the global translation. From 5 %: 0.082x, the poles straight."""
     from skimage import data
 
     from unjello.metrics import displacement_error
@@ -100,4 +102,4 @@ def test_a_pan_over_flat_sky_behind_poles_is_not_vibration():
     err = np.mean([displacement_error(f, s.motion) for f, s in zip(traj.frames, sim,
                                                                      strict=True)])
     unc = np.mean([displacement_error(None, s.motion) for s in sim])
-    assert err < 1.2 * unc, err / unc
+    assert err < 0.15 * unc, err / unc

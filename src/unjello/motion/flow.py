@@ -30,11 +30,13 @@ PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
 # get flow as fine as large ones (``docs/tuning.md``).
 _FULL_RES_WIDTH = 480
 
-#: Motion of at least this share of the frame's width per frame counts as large: DIS,
-#: starting from zero flow at its coarsest level, then locks onto an alias of repetitive
-#: texture, and a second run starts from the frame's global translation
-#: (:func:`global_shift`). The research pairs move at most 10 % (``docs/tuning.md``).
-LARGE_MOTION = 0.12
+#: Motion of at least this share of the frame's width per frame counts as large: more
+#: than about two pixels of DIS's coarsest level (an eighth to a sixteenth of the copy).
+#: DIS, starting from zero flow there, may then lock onto an alias of repetitive texture,
+#: or follow a few high-contrast edges (flat poles passing in front of a flat sky) and
+#: lose the scene's own motion; a second run starts from the frame's global translation
+#: (:func:`global_shift`). At 12 % a pan of 10 % behind poles was lost (``docs/tuning.md``).
+LARGE_MOTION = 0.05
 #: The width of the copies the global translation is measured on, and the phase
 #: correlation response below which it is not trusted.
 _SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
