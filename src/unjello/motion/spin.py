@@ -34,7 +34,18 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from .rigid import MOVING, Spin, Track, at, carried, costs, fit_drift, prepare, rotate
+from .rigid import (
+    MOVING,
+    Spin,
+    Track,
+    at,
+    carried,
+    costs,
+    fit_drift,
+    pattern_search,
+    prepare,
+    rotate,
+)
 from .safety import fill_hull
 
 __all__ = ["Spin", "fit_spin", "spin_field", "spin_source", "spin_support", "spin_regions",
@@ -117,11 +128,14 @@ def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     found.sort(key=lambda x: x[0])
 
     # Fine: a pattern search from the best few, the centre kept near the region's.
-    def cost(c: np.ndarray, om: float) -> float:
-        return float(costs(image, others, fine, c[None], np.array([om]), track, t_ref,
-                            readout / h).mean())
+    def cost(x: np.ndarray) -> np.ndarray:
+        """Score rotations ``x`` (m, 3: centre and omega) together."""
+        return costs(image, others, fine, x[:, :2], x[:, 2], track, t_ref,
+                     readout / h).mean(axis=1)
 
     d_omega = 1.0 / radius  # a turn that moves the rim by 1 px in a frame interval
+    steps = np.array([(1.0, 0, 0), (-1.0, 0, 0), (0, 1.0, 0), (0, -1.0, 0), (0, 0, d_omega),
+                      (0, 0, -d_omega)])
     results = []
     starts = [(c, om) for _, c, om in found[:2]] + [
         (np.asarray(c, np.float64), om) for c, om in hints
@@ -129,22 +143,14 @@ def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     if not starts:
         return None
     for centre, omega in starts:
-        best = cost(centre, omega)
-        for reach in (2.0, 1.0, 0.5, 0.25):
-            moved = True
-            while moved:
-                moved = False
-                for dc, dw in (((reach, 0), 0), ((-reach, 0), 0), ((0, reach), 0),
-                               ((0, -reach), 0), ((0, 0), reach), ((0, 0), -reach)):
-                    c, om = centre + dc, omega + dw * d_omega
-                    if np.linalg.norm(c - centroid) > radius / 3:
-                        continue
-                    v = cost(c, om)
-                    if v < best:
-                        best, centre, omega, moved = v, c, om, True
-        results.append((best, centre, omega))
-    best, centre, omega = min(results, key=lambda r: r[0])
-    return Spin(centre=centre, omega=omega, cost=best, still_cost=cost(centre, 0.0))
+        x = np.array([centre[0], centre[1], omega], np.float64)
+        results.append(pattern_search(
+            cost, x, float(cost(x[None])[0]), steps, (2.0, 1.0, 0.5, 0.25),
+            allowed=lambda p: np.hypot(*(p[:, :2] - centroid).T) <= radius / 3))
+    best, x = min(results, key=lambda r: r[0])
+    centre, omega = x[:2], float(x[2])
+    return Spin(centre=centre, omega=omega, cost=best,
+                still_cost=float(cost(np.array([[centre[0], centre[1], 0.0]]))[0]))
 
 
 def spin_field(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
