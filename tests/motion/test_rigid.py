@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from skimage import data
 
-from unjello.motion.rigid import Spin, carried, fit_drift
+from unjello.motion.rigid import Spin, carried, fit_drift, pattern_search, predict
 from unjello.motion.spin import keep_spinning, spin_field, spin_source
 from unjello.simulate import Motion, pole_layers, simulate
 from unjello.timing import SensorTiming
@@ -106,3 +106,65 @@ def test_a_small_fast_object_is_found(speed):
     spin = fit_drift(frame(0), [(frame(-speed), -1.0), (frame(speed), 1.0)], region,
                      lambda t: np.zeros(np.shape(t) + (2,)), 0.5, 1.0)
     assert spin is not None and spin.drift == pytest.approx([speed, 0.0], abs=0.5)
+
+
+def _one_at_a_time(cost, x, best, steps, scales, allowed):
+    """The reference: each step tried alone, in turn (the searches as first written)."""
+    calls = 0
+    for size in scales:
+        moved = True
+        while moved:
+            moved = False
+            for step in steps:
+                probe = x + step * size
+                if not allowed(probe[None])[0]:
+                    continue
+                calls += 1
+                c = float(cost(probe[None])[0])
+                if c < best:
+                    best, x, moved = c, probe, True
+    return best, x, calls
+
+
+def test_pattern_search_takes_the_path_of_one_step_at_a_time():
+    rng = np.random.default_rng(3)
+    centre = np.array([1.3, -0.7, 0.2])
+    bumps = rng.normal(0, 0.3, (5, 3))
+    seen = []
+
+    def cost(pts):
+        seen.append(len(pts))
+        d = pts[:, None, :] - bumps[None]
+        return (np.sum((pts - centre) ** 2, axis=1)
+                + 0.2 * np.exp(-np.sum(d ** 2, axis=2) / 0.1).sum(axis=1))
+
+    steps = np.array([(1.0, 0, 0), (-1.0, 0, 0), (0, 1.0, 0), (0, -1.0, 0), (0, 0, 0.5),
+                      (0, 0, -0.5)])
+    allowed = lambda p: np.abs(p[:, 1]) <= 0.6  # noqa: E731
+    x0 = np.zeros(3)
+    want = _one_at_a_time(cost, x0, float(cost(x0[None])[0]), steps, (2.0, 1.0, 0.5, 0.25),
+                          allowed)
+    seen.clear()
+    got = pattern_search(cost, x0, float(cost(x0[None])[0]), steps, (2.0, 1.0, 0.5, 0.25),
+                         allowed)
+    assert got[0] == want[0] and np.array_equal(got[1], want[1])
+    assert len(seen) - 1 < want[2] / 2  # a fraction of the calls
+    assert abs(got[1][1]) <= 0.6
+
+
+def test_a_drift_is_predicted_as_a_rotation_of_none():
+    """Drifts alone take the short way (times per vertical drift); rotations the long one."""
+    rng = np.random.default_rng(4)
+    g = np.linspace(-2, 3, 30)
+    cx, cy = np.cumsum(rng.normal(0, 2, 30)), np.cumsum(rng.normal(0, 1, 30))
+
+    def track(t):
+        return np.stack([np.interp(t, g, cx), np.interp(t, g, cy)], -1)
+
+    pts = rng.uniform(0, 180, (200, 2))
+    t_s = 0.005 * pts[:, 1]
+    drift = np.stack([rng.uniform(-30, 30, 40), rng.integers(-5, 5, 40).astype(float)], 1)
+    centre = np.full((40, 2), 90.0)
+    short = predict(pts, t_s, centre, np.zeros(40), track, 0.45, 1.0, 0.005, 4, drift)
+    long = predict(pts, t_s, centre, np.full(40, 1e-300), track, 0.45, 1.0, 0.005, 4, drift)
+    assert np.abs(short - long).max() < 1e-9
