@@ -68,6 +68,32 @@ def test_a_pole_is_no_spinner(poles):
     assert len(fronts) == len(spins) and weight[pole].mean() > 0.8
 
 
+def test_a_long_thin_object_is_fitted_no_rotation(poles, monkeypatch):
+    """A pole whose drift the neighbours do not confirm (here: the neighbours swapped, so
+    no drift explains it) is left to the motion around it; no rotation is searched for it
+    (benchmarks/edges.py: a pole over a flat sky was turned a turn a frame)."""
+    from unjello.motion import spin as spin_module
+
+    motion, sim, g = poles
+    k = 2
+    pole = _biggest_pole(sim[k].layer)
+    assert spin_module.elongation(pole) > 2 * spin_module.MAX_ELONGATION
+
+    def no_rotation(*a, **kw):
+        raise AssertionError("a rotation was searched for a pole")
+
+    monkeypatch.setattr(spin_module, "fit_spin", no_rotation)
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    field = np.zeros((H, W, 2), np.float32)
+    out, spins, weight, candidates, _ = keep_spinning(
+        field, g[k], [(g[k + 1], -1.0), (g[k - 1], 1.0)], pole, track, 0.5, 1.0,
+        hints=[(np.array([150.0, 90.0]), 2.0)])
+    assert not spins and not candidates and not weight.any() and np.array_equal(out, field)
+
+
 def test_a_drifting_source_inverts_its_correction():
     """spin_source is spin_field's inverse for a drift too: p + B(p) = s."""
     def track(t):
