@@ -42,7 +42,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 from . import __version__
 from .clip import with_lens
@@ -110,6 +109,8 @@ class ProjectLens:
 def _project(phi: np.ndarray, rays: np.ndarray, lens: Lens, size: tuple[int, int]
              ) -> np.ndarray:
     """Pixels where ``rays`` (m, 3) land once turned by the rotation vectors ``phi``."""
+    from scipy.spatial.transform import Rotation  # here: only exports need it
+
     q = Rotation.from_rotvec(phi).apply(rays)
     return lens.distort(q[:, :2] / np.maximum(q[:, 2:3], 1e-6), size)
 
@@ -165,6 +166,8 @@ def camera_rates(traj: Trajectory, lens: ProjectLens, fps: float
     rate : ndarray of shape (n, 3)
         Rad/s about the coded frame's camera axes (x right, y down, z along the view).
     """
+    from scipy.spatial.transform import Rotation, Slerp  # here: only exports need it
+
     if not traj.frames:
         raise SettingsError("the motion has no frames: nothing to export")
     timing = traj.timing
@@ -409,6 +412,8 @@ def gyroflow_displacement(time_ms: np.ndarray, imu: np.ndarray, *, offset_ms: fl
         Per row, ``s - p`` at the centre column: ``p`` the output pixel whose source is
         the row's centre pixel ``s`` (eq. 26's per-scanline displacement).
     """
+    from scipy.spatial.transform import Rotation, Slerp  # here: only exports need it
+
     h, w = size
     g = np.deg2rad(np.asarray(imu, np.float64))
     body = np.stack([-g[:, 1], g[:, 0], g[:, 2]], axis=1)

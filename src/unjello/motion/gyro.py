@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import InputError, SettingsError
 from ..gyrolog import GyroConfig, GyroLog, _axes_spec, axes_matrix
@@ -292,6 +291,9 @@ def _rotated(log: GyroLog, cal: GyroCalibration, size: tuple[int, int], t_from: 
     Theta(t_from))``; through a fisheye lens (``cal.distortion``) the rotation acts on the
     undistorted rays, ``distort(R undistort(p))``. Returns ``(len(y), len(x), 2)``.
     """
+    from scipy.spatial.transform import Rotation  # here: an import the other methods skip
+
+
     lens = Lens(cal.focal, cal.distortion)
     k = lens.matrix(size)
     phi = (log.theta(t_to) - log.theta(t_from)) @ cal.axes.T

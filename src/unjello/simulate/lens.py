@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..gyrolog import GyroLog
 from ..lens import Lens
@@ -89,6 +88,8 @@ def simulate_rotation(scene: np.ndarray, rate: Callable[[np.ndarray], np.ndarray
     s_f = scene_focal or 0.5 * min(sh, sw) / float(np.abs(rays).max() * 1.2)
 
     zero = log.theta(np.array([0.5 * frames / fps]))[0]  # facing the scene's centre midway
+
+    from scipy.spatial.transform import Rotation  # here: correcting never needs it
 
     def render(times: np.ndarray) -> np.ndarray:
         """Render the picture whose row ``y`` is read at ``times[y]`` (seconds)."""

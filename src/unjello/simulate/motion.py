@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..errors import InputError, SettingsError
 
@@ -126,6 +125,8 @@ class Motion:
         if self.kind == "spline":
             kt, kx, ky = (np.asarray(a, dtype=np.float64) for a in self.knots)
             if kt.size >= 4:
+                from scipy.interpolate import CubicSpline  # here: correcting never needs it
+
                 return np.stack([CubicSpline(kt, kx)(t), CubicSpline(kt, ky)(t)], axis=-1)
             return np.stack([np.interp(t, kt, kx), np.interp(t, kt, ky)], axis=-1)
         raise SettingsError(f"unknown motion {self.kind!r}; use one of {', '.join(MOTIONS)}")
