@@ -228,6 +228,14 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
     return det
 
 
+@njit(inline="always")
+def _held_tap(row: np.ndarray, i: int, c: float, b: float, top: float) -> float:
+    """``row[i] c + row[i + 1] b``, the indices held to the row's ends; rounded to ``top``."""
+    n = row.size - 1
+    v = row[min(max(i, 0), n)] * c + row[min(max(i + 1, 0), n)] * b
+    return min(int(v + np.float32(0.5)), top) if top > 0 else v
+
+
 @_compiled
 def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
                top: float) -> np.ndarray:
@@ -255,6 +263,7 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
     h, w = image.shape
     out = np.empty_like(image)
     row = np.empty(w + 2, np.float32)  # the two source rows blended, one pixel beyond
+    ftop = np.float32(top)
     for y in range(h):
         fy = sy[y]
         y0 = int(math.floor(fy))
@@ -267,18 +276,29 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
         src0, src1 = image[min(max(y0, 0), h - 1)], image[min(max(y0 + 1, 0), h - 1)]
         dst = out[y]
         for x in range(w):
-            row[x + 1] = src0[x] * w0 + src1[x] * w1
+            row[x + 1] = np.float32(src0[x]) * w0 + np.float32(src1[x]) * w1
         row[0] = 0.0 if black else row[1]
         row[w + 1] = 0.0 if black else row[w]
         fx = dx[y]
         ix = int(math.floor(fx))
         b = np.float32(fx - ix)
         c = np.float32(1.0) - b
-        # Output column x reads row[x + ix + 1] and row[x + ix + 2], held to the row's ends.
-        for x in range(w):
-            v = (row[min(max(x + ix + 1, 0), w + 1)] * c
-                 + row[min(max(x + ix + 2, 0), w + 1)] * b)
-            dst[x] = min(int(v + np.float32(0.5)), top) if top > 0 else v
+        # Output column x reads row[x + ix + 1] and row[x + ix + 2]: for x in [lo, hi)
+        # both lie within the row, a contiguous slice the compiler vectorises; outside
+        # it they are held to the row's ends.
+        lo = min(max(-ix - 1, 0), w)
+        hi = min(max(w - ix, lo), w)
+        for x in range(lo):
+            dst[x] = _held_tap(row, x + ix + 1, c, b, top)
+        for x in range(hi, w):
+            dst[x] = _held_tap(row, x + ix + 1, c, b, top)
+        seg = row[lo + ix + 1:hi + ix + 2]
+        if top > 0:
+            for x in range(hi - lo):
+                dst[lo + x] = np.uint32(min(seg[x] * c + seg[x + 1] * b + np.float32(0.5), ftop))
+        else:
+            for x in range(hi - lo):
+                dst[lo + x] = seg[x] * c + seg[x + 1] * b
     return out
 
 
