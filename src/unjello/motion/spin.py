@@ -195,6 +195,17 @@ def spin_source(spin: Spin, shape: tuple[int, int], track: Track, t_ref: float,
     track = carried(track, spin.drift)
     row_time = readout / h
     c_ref = np.asarray(track(np.array([t_ref])), np.float64)[0]
+    if not spin.omega:  # a drift: the source row depends on the output row alone
+        ys1 = np.arange(h, dtype=np.float64)[:, None]
+        rel_y = ys1 - spin.centre[1]
+        y = ys1.copy()
+        for _ in range(iterations):
+            moved = spin.centre + at(track, row_time * y) - c_ref  # (h, 1, 2)
+            y = np.clip(moved[..., 1] + rel_y, 0, h - 1)
+        xs1 = np.arange(w, dtype=np.float64)[None, :]
+        src_x = moved[..., 0] + (xs1 - spin.centre[0])
+        src_y = np.broadcast_to(moved[..., 1] + rel_y, (h, w))
+        return np.stack([src_x - xs1, src_y - ys1], axis=-1).astype(np.float32)
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
     rel = np.stack([xs, ys], axis=-1) - spin.centre
     y = ys.copy()
