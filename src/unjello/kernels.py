@@ -229,7 +229,7 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
 
 
 @njit(inline="always")
-def _held_tap(row: np.ndarray, i: int, c: float, b: float, top: float) -> float:
+def _held_tap(row: np.ndarray, i: int, c: np.float32, b: np.float32, top: float) -> float:
     """``row[i] c + row[i + 1] b``, the indices held to the row's ends; rounded to ``top``."""
     n = row.size - 1
     v = row[min(max(i, 0), n)] * c + row[min(max(i + 1, 0), n)] * b
