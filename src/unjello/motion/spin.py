@@ -377,11 +377,9 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
                 spin = fit_drift(image, others, support, track, t_ref, readout) or spin
         drifting = spin is not None and spin.gain >= min_gain and bool(
             np.hypot(*spin.drift) >= 1.0)
-        # A long thin object (a pole, a rail) is no swept disc: it is fitted no rotation.
-        turnable = not drifting and elongation(region) <= MAX_ELONGATION
-        if not drifting and not turnable:
-            continue
-        for search in (False, True) if turnable else ():
+        if not drifting and elongation(region) > MAX_ELONGATION:
+            continue  # a long thin object (a pole, a rail) is no swept disc: no rotation
+        for search in (False, True) if not drifting else ():
             # From last frame's rotation, else a full search.
             if not search and not hints:
                 continue
