@@ -69,6 +69,29 @@ def test_small_motion_is_plain_dis():
     assert np.array_equal(optical_flow(a, b, "medium", 0, None, 1), plain)
 
 
+def test_a_reused_flow_engine_gives_what_a_fresh_one_gives():
+    """DIS instances are kept per thread: a pair's flow must not depend on the pairs before.
+
+    OpenCV's DIS, once given a starting flow, uses it again on later calls without one; a
+    whip pan (second start) followed by a small motion, a smaller copy, then the small
+    motion again must each match a DIS made for it alone.
+    """
+    scene = _textured()
+    whip = scene[:, 58:378], scene[:, :320]
+    small = scene[:, 10:330], scene[:, :320]
+    half = scene[::2, 10:330:2], scene[::2, :320:2]
+
+    def fresh(a, b):
+        dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+        dis.setFinestScale(0)
+        dis.setVariationalRefinementIterations(1)
+        return dis.calc(a.astype(np.uint8), b.astype(np.uint8), None)
+
+    optical_flow(*whip, "medium", 0, None, 1)
+    for a, b in (small, half, small):
+        assert np.array_equal(optical_flow(a, b, "medium", 0, None, 1), fresh(a, b))
+
+
 def test_polished_flow_is_as_close_as_the_full_one():
     # DIS down to half resolution, polished at full: within 0.05 px of the full-resolution
     # flow's error on a sub-pixel shift of a textured scene (both well under 0.2 px).

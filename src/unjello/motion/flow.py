@@ -8,6 +8,7 @@ of flow at motion boundaries. Sign: a flow ``F`` from ``a`` to ``b`` has
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import cv2
@@ -102,6 +103,42 @@ def _pick_by_cost(a: np.ndarray, b: np.ndarray, flows: list[np.ndarray]) -> np.n
         best_cost = np.minimum(cost, best_cost)
     return best
 
+_engines = threading.local()
+
+
+def _engine(preset: str, finest_scale: int | None, refinement: int | None,
+            started: bool = False) -> cv2.DISOpticalFlow:
+    """Return this thread's DIS instance for these settings, made once.
+
+    A DIS instance keeps its pyramids and patch buffers from call to call; made anew
+    for every frame pair, each flow allocated them again, and on a pool of threads the
+    allocator handed the memory back and faulted it in again every frame
+    (``docs/measurements.md``). One instance keeps no state between pairs as long as it
+    is always, or never, given a starting flow (``started``): once given one, OpenCV's
+    DIS uses it again on later calls without one, so the two kinds of call get their own.
+    """
+    cache = _engines.__dict__.setdefault("dis", {})
+    key = (preset, finest_scale, refinement, started)
+    if key not in cache:
+        dis = cv2.DISOpticalFlow_create(PRESETS[preset])  # type: ignore[attr-defined]
+        if finest_scale is not None:
+            dis.setFinestScale(finest_scale)
+        if refinement is not None:
+            dis.setVariationalRefinementIterations(refinement)
+        cache[key] = dis
+    return cache[key]
+
+
+def _polisher(iterations: int) -> cv2.VariationalRefinement:
+    """Return this thread's variational refinement of ``iterations`` fixed-point steps."""
+    cache = _engines.__dict__.setdefault("polish", {})
+    if iterations not in cache:
+        refine = cv2.VariationalRefinement_create()  # type: ignore[attr-defined]
+        refine.setFixedPointIterations(iterations)
+        cache[iterations] = refine
+    return cache[iterations]
+
+
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  max_width: int = 960, finest_scale: int | None = None,
                  refinement: int | None = None, polish: int = 0) -> np.ndarray:
@@ -144,23 +181,18 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         size = (max(8, round(w * scale)), max(8, round(h * scale)))
         a8 = cv2.resize(a8, size, interpolation=cv2.INTER_AREA)
         b8 = cv2.resize(b8, size, interpolation=cv2.INTER_AREA)
-    dis = cv2.DISOpticalFlow_create(PRESETS[preset])  # type: ignore[attr-defined]
     if finest_scale is None and preset == "medium" and a8.shape[1] <= _FULL_RES_WIDTH:
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
-    if finest_scale is not None:
-        dis.setFinestScale(finest_scale)
-    if refinement is not None:
-        dis.setVariationalRefinementIterations(refinement)
+    dis = _engine(preset, finest_scale, refinement)
     flow = dis.calc(a8, b8, None)
     shift, response = global_shift(a8, b8)
     if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1] and response >= _SHIFT_RESPONSE:
         start = np.empty_like(flow)
         start[...] = shift
-        flow = _pick_by_cost(a8, b8, [flow, dis.calc(a8, b8, start)])
+        again = _engine(preset, finest_scale, refinement, started=True)
+        flow = _pick_by_cost(a8, b8, [flow, again.calc(a8, b8, start)])
     if polish > 0:
-        refine = cv2.VariationalRefinement_create()  # type: ignore[attr-defined]
-        refine.setFixedPointIterations(polish)
-        refine.calc(a8, b8, flow)
+        _polisher(polish).calc(a8, b8, flow)
     if scale < 1.0:
         sx, sy = w / a8.shape[1], h / a8.shape[0]
         flow = cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR)
