@@ -39,7 +39,13 @@ _FULL_RES_WIDTH = 480
 #: (:func:`global_shift`). At 12 % a pan of 10 % behind poles was lost (``docs/tuning.md``).
 LARGE_MOTION = 0.05
 #: The width of the copies the global translation is measured on, and the phase
-#: correlation response below which it is not trusted.
+#: correlation response below which the second run must also match the frame better as
+#: a whole (a lower mean patch cost) to be used at all. The response alone does not
+#: tell a right shift from a wrong one: over a flat sky with one object leaving the
+#: frame, near-right shifts came at -0.15 and 0.03 (DIS from zero gave -8 px where the scene
+#: moved -128) and a wrong one at 0.13; the real spinners' wrong shift of 27 px at 0.02.
+#: The mean cost tells them apart: 7.3 -> 1.7 and 16.4 -> 11.3 where right, 7.9 -> 8.8
+#: and 7.4 -> 8.1 where wrong (``docs/tuning.md``).
 _SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
 # Side (px) of the patches whose photometric cost picks between the two runs.
 _PICK_PATCH = 15
@@ -88,20 +94,22 @@ def global_shift(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
     return np.array([dx * w / size[0], dy * h / size[1]], np.float32), float(response)
 
 
-def _pick_by_cost(a: np.ndarray, b: np.ndarray, flows: list[np.ndarray]) -> np.ndarray:
-    """Per pixel, the flow whose patch matches ``b`` best (ties keep the first)."""
+def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
+                  whole: bool = False) -> np.ndarray:
+    """Per pixel, ``other`` where its patch matches ``b`` better than ``flow``'s.
+
+    With ``whole``, ``other`` is used only if it matches better over the frame too (a
+    lower mean patch cost); else ``flow`` is returned as it is.
+    """
     h, w = a.shape
     gx, gy = pixel_grid(h, w)
     af = a.astype(np.float32)
     bf = b.astype(np.float32)
-    best = flows[0]
-    best_cost = patch_cost(af, bf, gx, gy, best, _PICK_PATCH)
-    for other in flows[1:]:
-        cost = patch_cost(af, bf, gx, gy, other, _PICK_PATCH)
-        better = cost < best_cost
-        best = np.where(better[..., None], other, best)
-        best_cost = np.minimum(cost, best_cost)
-    return best
+    cost = patch_cost(af, bf, gx, gy, flow, _PICK_PATCH)
+    cost_other = patch_cost(af, bf, gx, gy, other, _PICK_PATCH)
+    if whole and float(cost_other.mean()) >= float(cost.mean()):
+        return flow
+    return np.where((cost_other < cost)[..., None], other, flow)
 
 _engines = threading.local()
 
@@ -186,11 +194,12 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     dis = _engine(preset, finest_scale, refinement)
     flow = dis.calc(a8, b8, None)
     shift, response = global_shift(a8, b8)
-    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1] and response >= _SHIFT_RESPONSE:
+    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
         start = np.empty_like(flow)
         start[...] = shift
         again = _engine(preset, finest_scale, refinement, started=True)
-        flow = _pick_by_cost(a8, b8, [flow, again.calc(a8, b8, start)])
+        flow = _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start),
+                             whole=response < _SHIFT_RESPONSE)
     if polish > 0:
         _polisher(polish).calc(a8, b8, flow)
     if scale < 1.0:
