@@ -138,3 +138,26 @@ def test_a_vibrating_clip_has_its_probed_pairs_measured_again_in_full(scene, mon
         last[pair] = polish
     assert len(last) == 11 and set(last.values()) == {0}  # each pair's last flow: full
     assert 0 < sum(p for _, p in calls) and len(calls) < 2 * 11
+
+
+def test_content_entering_a_pair_moves_with_its_row():
+    """A pair cannot tell the camera's trajectory from its rows' velocity: both count.
+
+    At 40 % of the width a frame, the frame's left 40 % is content the previous frame
+    did not show (no flow lands inside): it is on the camera model, which must carry the
+    row velocity's part too (it carried the trajectory's alone: 0.41x the displacement).
+    """
+    from skimage import data
+
+    from unjello.pipeline import correct_frames
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    timing = SensorTiming(0.7)
+    sim = list(simulate(data.astronaut(), Motion("pan", speed=128.0), timing, 2,
+                        size=(320, 180)))
+    _, traj = correct_frames([s.rolling for s in sim], timing)
+    est = traj.frames[1].pixel_displacement(320)[:, :24, 0]
+    true = sim[1].motion.pixel_displacement(320)[:, :24, 0]
+    assert np.median(np.abs(est - true)) < 0.5
+    assert np.median(np.abs(true)) > 15  # a case where it shows

@@ -44,3 +44,19 @@ def test_at_reference_is_exact_for_a_quadratic_motion():
     assert np.abs(field - truth)[~only_a].max() < 1e-4
     line = (ahead / ea)[..., None] * r(ea)
     assert np.abs(field - line)[only_a].max() < 1e-4
+
+
+def test_unreliable_pixels_far_from_reliable_ones_take_the_prior():
+    from unjello.motion.field import fill_unreliable
+
+    resid = np.zeros((60, 200, 2), np.float32)
+    resid[..., 0] = 3.0
+    ok = np.zeros((60, 200), bool)
+    ok[:, 120:] = True  # the left 120 columns unreliable
+    prior = np.zeros((60, 1, 2), np.float32)
+    prior[:, 0, 0] = 5.0
+    plain = fill_unreliable(resid.copy(), ok, 12.0)
+    given = fill_unreliable(resid.copy(), ok, 12.0, prior=prior)
+    assert np.allclose(plain[:, 110:, 0], 3.0) and np.allclose(given[:, 110:, 0], 3.0)
+    assert np.allclose(plain[:, :40, 0], 0.0) and np.allclose(given[:, :40, 0], 5.0)
+    assert np.array_equal(plain[:, 96:], given[:, 96:])  # near reliable pixels: the same

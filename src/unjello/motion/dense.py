@@ -388,7 +388,8 @@ class DenseMethod(SafeField):
             return FrameMotion(fr.index, fr.start, camera, to_full_rows(velocity), ok=True,
                                note=self._note)
         field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
-                                                         (float(grid_t[0]), float(step), c))
+                                                         (float(grid_t[0]), float(step), c),
+                                                         u_rows)
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
@@ -410,9 +411,15 @@ class DenseMethod(SafeField):
                            camera=camera)
 
     def _residual(self, fr: DenseFrame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
-                  cam_disp: np.ndarray, cam: tuple[float, float, np.ndarray]
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each pixel's motion beyond the camera's, carried to the reference time.
+                  cam_disp: np.ndarray, cam: tuple[float, float, np.ndarray],
+                  u_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each pixel's motion beyond the camera trajectory's, carried to the reference time.
+
+        A pixel with no reliable flow takes its reliable neighbours' (Gaussian average);
+        with none near, the row velocity's ``u_rows`` (per frame interval), so that it
+        moves with its row's camera model: a frame pair, or a steady pan, cannot tell the
+        trajectory from the row velocity, and content entering the frame at its side took
+        the trajectory's part alone (a 40 % pan: 0.41x its row's displacement).
 
         Returns
         -------
@@ -452,14 +459,17 @@ class DenseMethod(SafeField):
             sides.append((e, resid, ok, flow))
         # Per row: the time from each pixel's to the reference.
         ahead_t = np.float32(t_ref) - t_s
+        u = np.ascontiguousarray(u_rows[:, None, :], np.float32)
         if len(sides) == 1 and self.config.advect:
             # One neighbour: the pixel's velocity, carried along its way to t_ref.
             e, r, ok, flow = sides[0]
-            vel = smooth_field(fill_unreliable(r / e[..., None], ok, self.config.fill_sigma))
+            vel = smooth_field(fill_unreliable(r / e[..., None], ok, self.config.fill_sigma,
+                                               prior=u))
             dt = ahead_t[..., None]
             ahead = dt * vel - cam_disp[:, None, :]
             return dt * advected_velocity(vel, ok, flow, ahead), ~ok, entering
         field_resid, fallback = at_reference([(e, r, ok) for e, r, ok, _ in sides], ahead_t)
+        along = ahead_t[..., None] * u  # the row velocity's part, to the reference time
         field_resid = smooth_field(fill_unreliable(field_resid, ~fallback,
-                                                     self.config.fill_sigma))
+                                                     self.config.fill_sigma, prior=along))
         return field_resid, fallback, entering & fallback

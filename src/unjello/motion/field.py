@@ -84,10 +84,17 @@ def rows_minus(rows: np.ndarray, field: np.ndarray) -> np.ndarray:
             - np.ascontiguousarray(field).reshape(h, 2 * w)).reshape(h, w, 2)
 
 
-def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarray:
-    """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones."""
+def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
+                    prior: np.ndarray | None = None) -> np.ndarray:
+    """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones.
+
+    Where no reliable pixel is near (their blurred weight under 0.001: about 3
+    ``sigma`` away), 0, or the ``prior`` given (broadcast to ``resid``).
+    """
     if ok.all() or not ok.any() or sigma <= 0:
-        return resid if ok.any() else np.zeros_like(resid)
+        if ok.any() or prior is None:
+            return resid if ok.any() else np.zeros_like(resid)
+        return np.broadcast_to(prior, resid.shape).astype(resid.dtype)
     # The average is smooth: blur at a quarter of the resolution, then interpolate back.
     h, w_ = ok.shape
     small = (max(1, w_ // 4), max(1, h // 4))
@@ -98,7 +105,11 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float) -> np.ndarr
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / both_axes(np.maximum(w, 1e-3))
-    avg[w <= 1e-3] = 0.0
+    far = w <= 1e-3
+    if prior is None:
+        avg[far] = 0.0
+    else:
+        avg[far] = np.broadcast_to(prior, resid.shape)[far]
     put(avg, resid, ok)
     return avg
 
