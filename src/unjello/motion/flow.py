@@ -192,7 +192,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     if finest_scale is None and preset == "medium" and a8.shape[1] <= _FULL_RES_WIDTH:
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     dis = _engine(preset, finest_scale, refinement)
-    flow = dis.calc(a8, b8, None)
+    flow = dis.calc(a8, b8, None)  # type: ignore[call-overload]  # None: no start
     shift, response = global_shift(a8, b8)
     if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
         start = np.empty_like(flow)
