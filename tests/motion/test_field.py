@@ -59,4 +59,18 @@ def test_unreliable_pixels_far_from_reliable_ones_take_the_prior():
     given = fill_unreliable(resid.copy(), ok, 12.0, prior=prior)
     assert np.allclose(plain[:, 110:, 0], 3.0) and np.allclose(given[:, 110:, 0], 3.0)
     assert np.allclose(plain[:, :40, 0], 0.0) and np.allclose(given[:, :40, 0], 5.0)
-    assert np.array_equal(plain[:, 96:], given[:, 96:])  # near reliable pixels: the same
+    assert np.array_equal(plain[:, 104:], given[:, 104:])  # near reliable pixels: the same
+
+
+def test_a_few_stray_reliable_pixels_do_not_outweigh_the_prior():
+    from unjello.motion.field import fill_unreliable
+
+    resid = np.zeros((60, 200, 2), np.float32)
+    ok = np.zeros((60, 200), bool)
+    resid[30, 40, 0], ok[30, 40] = -40.0, True  # one wrong flow that passed the check
+    resid[:, 150:, 0], ok[:, 150:] = 3.0, True
+    prior = np.full((60, 1, 2), 5.0, np.float32)
+    plain = fill_unreliable(resid.copy(), ok, 12.0)
+    given = fill_unreliable(resid.copy(), ok, 12.0, prior=prior)
+    assert plain[30, 44, 0] < -30  # alone, the stray pixel's flow fills around it
+    assert given[30, 44, 0] == 5.0

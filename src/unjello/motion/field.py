@@ -84,12 +84,21 @@ def rows_minus(rows: np.ndarray, field: np.ndarray) -> np.ndarray:
             - np.ascontiguousarray(field).reshape(h, 2 * w)).reshape(h, w, 2)
 
 
+#: Given a prior, :func:`fill_unreliable` uses it where reliable pixels weigh less than
+#: this around a pixel: a few stray "reliable" pixels (a wrong flow that passed the
+#: check) in content entering the frame otherwise gave the whole band beside them their
+#: flow (a 40 % pan, astronaut pair: mean displacement error 2.74 -> 1.09 px). At 0.1 the
+#: Carla pairs lost 0.11 dB, at 0.2 0.30; at 0.05 every research pair within 0.02 dB.
+PRIOR_BELOW = 0.05
+
+
 def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
                     prior: np.ndarray | None = None) -> np.ndarray:
     """Replace residuals of unreliable pixels by a normalised Gaussian average of reliable ones.
 
     Where no reliable pixel is near (their blurred weight under 0.001: about 3
-    ``sigma`` away), 0, or the ``prior`` given (broadcast to ``resid``).
+    ``sigma`` away), 0; given a ``prior`` (broadcast to ``resid``), the prior wherever
+    that weight is under :data:`PRIOR_BELOW`.
     """
     if ok.all() or not ok.any() or sigma <= 0:
         if ok.any() or prior is None:
@@ -105,7 +114,7 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / both_axes(np.maximum(w, 1e-3))
-    far = w <= 1e-3
+    far = w <= (1e-3 if prior is None else PRIOR_BELOW)
     if prior is None:
         avg[far] = 0.0
     else:
