@@ -100,10 +100,11 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
     ``sigma`` away), 0; given a ``prior`` (broadcast to ``resid``), the prior wherever
     that weight is under :data:`PRIOR_BELOW`.
     """
-    if ok.all() or not ok.any() or sigma <= 0:
-        if ok.any() or prior is None:
-            return resid if ok.any() else np.zeros_like(resid)
-        return np.broadcast_to(prior, resid.shape).astype(resid.dtype)
+    if not ok.any():
+        return np.zeros_like(resid) if prior is None else (
+            np.broadcast_to(prior, resid.shape).astype(resid.dtype))
+    if ok.all() or sigma <= 0:
+        return resid
     # The average is smooth: blur at a quarter of the resolution, then interpolate back.
     h, w_ = ok.shape
     small = (max(1, w_ // 4), max(1, h // 4))
@@ -114,11 +115,10 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / both_axes(np.maximum(w, 1e-3))
-    far = w <= (1e-3 if prior is None else PRIOR_BELOW)
     if prior is None:
-        avg[far] = 0.0
+        avg[w <= 1e-3] = 0.0
     else:
-        avg[far] = np.broadcast_to(prior, resid.shape)[far]
+        np.copyto(avg, prior, where=(w <= PRIOR_BELOW)[..., None])
     put(avg, resid, ok)
     return avg
 

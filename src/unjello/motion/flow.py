@@ -111,6 +111,7 @@ def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndar
         return flow
     return np.where((cost_other < cost)[..., None], other, flow)
 
+
 _engines = threading.local()
 
 
