@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
-from .flow import FlowSettings, misses
+from .flow import FlowSettings, landing, misses
 from .safety import (
     failed_blobs,
     fold_blobs,
@@ -52,6 +52,12 @@ FOLD_WARNING = 0.002
 #: (``docs/measurements.md``).
 KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
 
+#: A neighbour whose flow carries a pixel more than this many pixels (of the working
+#: copy) outside the frame does not see it, and cannot say whether the flow missed it
+#: (:meth:`SafeField._missed`); a flow landing just outside, at the top or bottom rows,
+#: still counts.
+BEYOND = 4.0
+
 
 @dataclass
 class DenseFrame:
@@ -70,6 +76,13 @@ class DenseFrame:
     def contrast(self) -> float:
         """Standard deviation of the grey levels (a fade from black starts near 0)."""
         return float(cv2.meanStdDev(self.image)[1][0, 0])
+
+
+def _beyond(flow: np.ndarray) -> np.ndarray:
+    """Pixels whose flow lands more than :data:`BEYOND` px outside the frame."""
+    h, w = flow.shape[:2]
+    gx, gy, _ = landing(flow)
+    return (gx < -BEYOND) | (gx > w - 1 + BEYOND) | (gy < -BEYOND) | (gy > h - 1 + BEYOND)
 
 
 class SafeField:
@@ -147,19 +160,23 @@ class SafeField:
         return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts
 
     def _missed(self, fr: DenseFrame) -> np.ndarray:
-        """Pixels the flow to every neighbour carries onto unlike grey levels, in blobs.
+        """Pixels the flow to every neighbour that sees them carries onto unlike grey levels.
 
         :func:`~unjello.motion.flow.misses` on each side, both at once, opened by a 7 px
         disc: the thin lines along a near object's edges (occlusions, seen from one
-        side) go, the blobs of a flow that failed on a spinner stay.
+        side) go, the blobs of a flow that failed on a spinner stay. A side whose flow
+        lands :data:`BEYOND` the frame cannot tell: an object leaving the frame that the other
+        side's flow misses is missed (a near pole at the side, which the flow lost, was
+        taken for one it follows and kept the background's motion).
         """
         near = {f.index: f for f in self._frames}
-        sides = [misses(near[fr.index + k].image, fr.image, flow)
+        sides = [(misses(near[fr.index + k].image, fr.image, flow), _beyond(flow))
                  for k, flow in ((-1, fr.bwd), (1, fr.fwd))
                  if flow is not None and fr.index + k in near]
         if not sides:
             return np.zeros(fr.image.shape, bool)
-        both = np.logical_and.reduce(sides).astype(np.uint8)
+        both = (np.logical_and.reduce([m | gone for m, gone in sides])
+                & ~np.logical_and.reduce([gone for _, gone in sides])).astype(np.uint8)
         return cv2.morphologyEx(both, cv2.MORPH_OPEN, cv2.getStructuringElement(
             cv2.MORPH_ELLIPSE, (7, 7))).astype(bool)
 
