@@ -325,19 +325,23 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
     return mx + lands * (qx - mx), my + lands * (qy - my)
 
 
-def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int
+def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int,
+                out: tuple[np.ndarray, np.ndarray] | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Backward maps computed at one resolution, for a plane of another (pixel centres)."""
+    """Backward maps computed at one resolution, for a plane of another (pixel centres).
+
+    ``out``: two float32 arrays of ``height x width`` to write the maps into (a 1080p
+    frame's are 16 MB, faulted in afresh every frame when allocated anew).
+    """
     h, w = map_x.shape
     if (h, w) == (height, width):
         return map_x, map_y
     sx, sy = np.float32(width / w), np.float32(height / h)
     # Linear interpolation commutes with the affine change of units: apply it first,
     # on the small maps.
-    mx = cv2.resize((map_x + np.float32(0.5)) * sx - np.float32(0.5), (width, height),
-                    interpolation=cv2.INTER_LINEAR)
-    my = cv2.resize((map_y + np.float32(0.5)) * sy - np.float32(0.5), (width, height),
-                    interpolation=cv2.INTER_LINEAR)
+    mx, my = (cv2.resize((m + np.float32(0.5)) * s - np.float32(0.5), (width, height),
+                         dst=None if out is None else o, interpolation=cv2.INTER_LINEAR)
+              for m, s, o in zip((map_x, map_y), (sx, sy), out or (None, None), strict=True))
     # Beyond the outermost sample centres (half a sample from each edge) cv2.resize holds
     # the value: there the source position would stop moving and smear the edge over
     # half a sample (4 px for a field every 8 px). Hold the displacement instead.
@@ -513,10 +517,10 @@ class PictureWarper:
                     res = shift_planes(tb, _plane_displacement(motion, ph, pw, h, w), fill)
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
-                    sized[(ph, pw)] = resize_maps(*maps, ph, pw) if maps is not None else (
+                    buffers = self._buffer(ph, pw)  # reused: not faulted in every frame
+                    sized[(ph, pw)] = resize_maps(*maps, ph, pw, buffers) if maps is not None else (
                         reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
-                                                out=self._buffer(ph, pw)),
-                                     motion.reframe, (h, w)))
+                                                out=buffers), motion.reframe, (h, w)))
                     if self.undistort is not None:  # one resampling: the maps composed
                         sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
                                                        self._lens(ph, pw, scale))
