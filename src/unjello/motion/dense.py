@@ -403,12 +403,38 @@ class DenseMethod(SafeField):
         scale_axes(field, *scale)
         for layer in fronts:  # their displacements too; the weight stays
             layer[..., :2] *= scale
-        neighbours = tuple((offset, flow) for offset, flow in ((-1, fr.bwd), (1, fr.fwd))
-                           if flow is not None)
+        neighbours = self._fill_flows(fr, t_rows, c_at, u_rows)
         return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
                            spun=spun, field=field, front=fronts, neighbours=neighbours,
                            camera=camera)
+
+    def _fill_flows(self, fr: DenseFrame, t_rows: np.ndarray,
+                    c_at: Callable[[np.ndarray], np.ndarray], u_rows: np.ndarray
+                    ) -> tuple[tuple[int, np.ndarray], ...]:
+        """Return the flows to the neighbours that the warper follows past the frame's edge.
+
+        The strip beyond the edge is taken from a neighbour along the flow of the pixels
+        nearest the edge, and a failed one there (a near pole the flow lost, content
+        entering the frame) carried it to an arbitrary place. Failed pixels are filled as
+        the residuals are (:func:`~unjello.motion.field.fill_unreliable`): the reliable
+        flow near them, or where none is near their row's camera model (the trajectory's
+        motion over the frame interval plus the row velocity's). The camera model alone
+        cost the Carla pairs 0.2 dB (forward motion, which a row model cannot give).
+        """
+        near = {f.index: f for f in self._frames}
+        out = []
+        for offset, flow, ok in ((-1, fr.bwd, fr.bwd_ok), (1, fr.fwd, fr.fwd_ok)):
+            if flow is None:
+                continue
+            other = near.get(fr.index + offset)
+            if ok is not None and other is not None and not ok.all():
+                dt = other.start - fr.start  # a row's time there, less its time here
+                model = (c_at(t_rows + dt) - c_at(t_rows) + u_rows * dt).astype(np.float32)
+                flow = fill_unreliable(flow, ok, self.config.fill_sigma,
+                                       prior=model[:, None, :])
+            out.append((offset, flow))
+        return tuple(out)
 
     def _residual(self, fr: DenseFrame, t_rows: np.ndarray, t_ref: float, cam_rows: np.ndarray,
                   cam_disp: np.ndarray, cam: tuple[float, float, np.ndarray],
