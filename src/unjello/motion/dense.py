@@ -37,6 +37,7 @@ still first frame is assumed: every frame is corrected to its own reference time
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
@@ -54,6 +55,7 @@ from .field import (
     advected_velocity,
     at_reference,
     fill_unreliable,
+    fill_unreliable_at,
     rows_minus,
     scale_axes,
     smooth_field,
@@ -78,6 +80,9 @@ from .vibration import (
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
+#: Pixels from the border whose flows the warper follows past the edge (it reads them
+#: ``unjello.neighbours.INSET``, 3 px, in, bilinearly): only there are failed ones filled.
+RING = 6
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
@@ -86,6 +91,19 @@ def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
     flow = optical_flow(cur, prev, preset, max_width, finest_scale)
     return flow, landing(flow)[2]
 
+
+@functools.cache
+def _border_ring(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the pixels within :data:`RING` of the frame's border.
+
+    The warper follows these pixels' flows into a neighbour for what lies beyond the
+    edge (:func:`unjello.neighbours.neighbour_sources` reads the flow 3 px in from it).
+    """
+    ring = np.ones(shape, bool)
+    ring[RING:-RING, RING:-RING] = False
+    ys, xs = np.nonzero(ring)
+    ys.flags.writeable = xs.flags.writeable = False
+    return ys, xs
 
 class DenseMethod(SafeField):
     """Streaming dense method: returns each frame's motion ``window`` frames later.
@@ -420,7 +438,8 @@ class DenseMethod(SafeField):
         the residuals are (:func:`~unjello.motion.field.fill_unreliable`): the reliable
         flow near them, or where none is near their row's camera model (the trajectory's
         motion over the frame interval plus the row velocity's). The camera model alone
-        cost the Carla pairs 0.2 dB (forward motion, which a row model cannot give).
+        cost the Carla pairs 0.2 dB (forward motion, which a row model cannot give). Only
+        the ring the warper reads (:func:`_border_ring`) is filled.
         """
         near = {f.index: f for f in self._frames}
         out = []
@@ -431,8 +450,8 @@ class DenseMethod(SafeField):
             if ok is not None and other is not None and not ok.all():
                 dt = other.start - fr.start  # a row's time there, less its time here
                 model = (c_at(t_rows + dt) - c_at(t_rows) + u_rows * dt).astype(np.float32)
-                flow = fill_unreliable(flow, ok, self.config.fill_sigma,
-                                       prior=model[:, None, :])
+                flow = fill_unreliable_at(flow, ok, self.config.fill_sigma,
+                                          _border_ring(ok.shape), model)
             out.append((offset, flow))
         return tuple(out)
 

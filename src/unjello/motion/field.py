@@ -16,9 +16,9 @@ from ..kernels import projective_irls, quadratic_ahead
 from ..timing import pixel_grid
 from .flow import patch_cost
 
-__all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
-           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",
-           "scale_axes", "rows_minus"]
+__all__ = ["fill_unreliable", "fill_unreliable_at", "smooth_field", "projective_flow",
+           "fit_projective", "advected_velocity", "snap_to_global", "put", "both_axes",
+           "at_reference", "scale_axes", "rows_minus"]
 
 
 def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
@@ -105,15 +105,10 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
             np.broadcast_to(prior, resid.shape).astype(resid.dtype))
     if ok.all() or sigma <= 0:
         return resid
-    # The average is smooth: blur at a quarter of the resolution, then interpolate back.
     h, w_ = ok.shape
-    small = (max(1, w_ // 4), max(1, h // 4))
-    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
-    kept = np.zeros_like(resid)
-    put(kept, resid, ok)
-    numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
-    w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
-    num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
+    okf, numf = _reliable_sums(resid, ok, sigma)
+    w = cv2.resize(okf, (w_, h))
+    num = cv2.resize(numf, (w_, h))
     avg = num / both_axes(np.maximum(w, 1e-3))
     if prior is None:
         avg[w <= 1e-3] = 0.0
@@ -121,6 +116,61 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
         np.copyto(avg, prior, where=(w <= PRIOR_BELOW)[..., None])
     put(avg, resid, ok)
     return avg
+
+
+def _reliable_sums(resid: np.ndarray, ok: np.ndarray, sigma: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian sums of the reliable pixels' weight and values, at a quarter resolution.
+
+    The average they give is smooth: blurred at a quarter of the resolution, to be
+    interpolated back.
+    """
+    h, w = ok.shape
+    small = (max(1, w // 4), max(1, h // 4))
+    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
+    kept = np.zeros_like(resid)
+    put(kept, resid, ok)
+    numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
+    return (cv2.GaussianBlur(okf, (0, 0), sigma / 4),
+            cv2.GaussianBlur(numf, (0, 0), sigma / 4))
+
+
+def fill_unreliable_at(resid: np.ndarray, ok: np.ndarray, sigma: float,
+                       where: tuple[np.ndarray, np.ndarray], prior: np.ndarray) -> np.ndarray:
+    """:func:`fill_unreliable` at the pixels ``where`` (rows, columns) only; a copy.
+
+    The average is taken at a quarter of the resolution and interpolated at those
+    pixels alone, so that a thin ring of them costs a fraction of the whole frame's
+    fill. ``prior`` has one value a row, shape (h, 2).
+    """
+    out = resid.copy()
+    bad = ~ok[where]
+    ys, xs = where[0][bad], where[1][bad]
+    if not ys.size:
+        return out
+    if not ok.any():
+        out[ys, xs] = prior[ys]
+        return out
+    h, w = ok.shape
+    okf, numf = _reliable_sums(resid, ok, sigma)
+    sh, sw = okf.shape
+    # Bilinear at the pixels' centres on the quarter grid (as cv2.resize takes them).
+    fx = np.clip((xs + 0.5) * sw / w - 0.5, 0, sw - 1)
+    fy = np.clip((ys + 0.5) * sh / h - 0.5, 0, sh - 1)
+    x0 = np.minimum(fx.astype(int), sw - 2).clip(0)
+    y0 = np.minimum(fy.astype(int), sh - 2).clip(0)
+    x1, y1 = np.minimum(x0 + 1, sw - 1), np.minimum(y0 + 1, sh - 1)
+    ax, ay = (fx - x0)[:, None], (fy - y0)[:, None]
+
+    def at(a: np.ndarray) -> np.ndarray:
+        a = a.reshape(sh, sw, -1)
+        return ((a[y0, x0] * (1 - ax) + a[y0, x1] * ax) * (1 - ay)
+                + (a[y1, x0] * (1 - ax) + a[y1, x1] * ax) * ay)
+
+    weight = at(okf)
+    avg = at(numf) / np.maximum(weight, 1e-3)
+    out[ys, xs] = np.where(weight <= PRIOR_BELOW, prior[ys], avg)
+    return out
 
 
 def smooth_field(field: np.ndarray) -> np.ndarray:
