@@ -105,6 +105,7 @@ def _border_ring(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     ys.flags.writeable = xs.flags.writeable = False
     return ys, xs
 
+
 class DenseMethod(SafeField):
     """Streaming dense method: returns each frame's motion ``window`` frames later.
 

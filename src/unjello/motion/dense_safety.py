@@ -165,9 +165,10 @@ class SafeField:
         :func:`~unjello.motion.flow.misses` on each side, both at once, opened by a 7 px
         disc: the thin lines along a near object's edges (occlusions, seen from one
         side) go, the blobs of a flow that failed on a spinner stay. A side whose flow
-        lands :data:`BEYOND` the frame cannot tell: an object leaving the frame that the other
-        side's flow misses is missed (a near pole at the side, which the flow lost, was
-        taken for one it follows and kept the background's motion).
+        lands more than :data:`BEYOND` px outside the frame cannot tell: an object leaving
+        the frame that the other side's flow misses is missed (a near pole at the side,
+        which the flow lost, was taken for one it follows and kept the background's
+        motion).
         """
         near = {f.index: f for f in self._frames}
         sides = [(misses(near[fr.index + k].image, fr.image, flow), _beyond(flow))
