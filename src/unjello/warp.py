@@ -340,7 +340,7 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int,
     # Linear interpolation commutes with the affine change of units: apply it first,
     # on the small maps.
     mx, my = (cv2.resize((m + np.float32(0.5)) * s - np.float32(0.5), (width, height),
-                         dst=None if out is None else o, interpolation=cv2.INTER_LINEAR)
+                         dst=o, interpolation=cv2.INTER_LINEAR)
               for m, s, o in zip((map_x, map_y), (sx, sy), out or (None, None), strict=True))
     # Beyond the outermost sample centres (half a sample from each edge) cv2.resize holds
     # the value: there the source position would stop moving and smear the edge over
