@@ -46,6 +46,7 @@ import cv2
 import numpy as np
 
 from ..kernels import residual_side
+from ..neighbours import INSET
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
@@ -81,8 +82,8 @@ from .vibration import (
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
 #: Pixels from the border whose flows the warper follows past the edge (it reads them
-#: ``unjello.neighbours.INSET``, 3 px, in, bilinearly): only there are failed ones filled.
-RING = 6
+#: :data:`~unjello.neighbours.INSET` in, bilinearly): only there are failed ones filled.
+RING = int(INSET) + 3
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
@@ -97,7 +98,7 @@ def _border_ring(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the pixels within :data:`RING` of the frame's border.
 
     The warper follows these pixels' flows into a neighbour for what lies beyond the
-    edge (:func:`unjello.neighbours.neighbour_sources` reads the flow 3 px in from it).
+    edge (:func:`unjello.neighbours.neighbour_sources` reads the flow ``INSET`` in).
     """
     ring = np.ones(shape, bool)
     ring[RING:-RING, RING:-RING] = False
