@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 
 from .lens import Lens
-from .neighbours import fill_from_neighbours, neighbour_sources, unseen_share
+from .neighbours import NeighbourFill, outside_share
 from .scanlines import row_sources, shift_planes
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
@@ -275,9 +275,7 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
         to a frame's size).
     """
     h, w = field.shape[:2]
-    f = np.ascontiguousarray(field, np.float32).copy()
-    if frame is not None and frame != (h, w):  # per channel (no broadcast over an axis of 2)
-        cv2.multiply(f, (w / frame[1], h / frame[0], 0.0, 0.0), dst=f)
+    f = grid_field(field, (h, w), frame)
     gx, gy = pixel_grid(h, w)
     mx, my = gx + f[..., 0], gy + f[..., 1]
     for _ in range(iterations):
@@ -289,6 +287,15 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
         if moved < tol:
             break
     return mx, my
+
+
+def grid_field(field: np.ndarray, grid: tuple[int, int], frame: tuple[int, int] | None
+               ) -> np.ndarray:
+    """Return a copy of a per-pixel ``field`` in pixels of its ``grid``, from ``frame``'s."""
+    f = np.ascontiguousarray(field, np.float32).copy()
+    if frame is not None and frame != grid:  # per channel (no broadcast over an axis of 2)
+        cv2.multiply(f, (grid[1] / frame[1], grid[0] / frame[0], 0.0, 0.0), dst=f)
+    return f
 
 
 def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
@@ -493,13 +500,16 @@ class PictureWarper:
         h, w = to_top_bottom(planes[0], d).shape[:2]
         maps = frame_maps(motion, h, w)[0] if motion.field is not None else None
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
-        sources: list[tuple[int, list[np.ndarray], np.ndarray]] = []
-        parts: dict[tuple[int, int], list] = {}
-        if around and fill == "nearest":
-            for k, flow in motion.neighbours:
-                pic = around.get(k)
-                if pic is not None:
-                    sources.append((k, pic, flow))
+        fills = None
+        if maps is not None and around and fill == "nearest":
+            have = [(k, around[k], flow) for k, flow in motion.neighbours if around.get(k)]
+            if have:  # the background nearer objects uncovered too, where nothing is composed
+                plain = self.undistort is None and motion.reframe.identity
+                fills = NeighbourFill(
+                    maps, [([to_top_bottom(p, d) for p in pic], flow) for _, pic, flow in have],
+                    [k for k, _, _ in have], self.timing,
+                    grid_field(motion.field, maps[0].shape, (h, w)) if plain else None,
+                    coarse=self.undistort is None)
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
@@ -525,17 +535,11 @@ class PictureWarper:
                         sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
                                                        self._lens(ph, pw, scale))
                 res = apply_maps(tb, sized[(ph, pw)], fill=fill)
-                if maps is not None and sources:
-                    if (ph, pw) not in parts:
-                        parts[(ph, pw)] = neighbour_sources(
-                            sized[(ph, pw)], [flow for _, _, flow in sources],
-                            maps if self.undistort is None else None,
-                            [k for k, _, _ in sources], self.timing.reference_row(ph))
-                    res = fill_from_neighbours(
-                        res, parts[(ph, pw)], [to_top_bottom(pic[i], d) for _, pic, _ in sources])
+                if fills is not None:
+                    res = fills(i, res, sized[(ph, pw)])
                 if i == 0:
-                    self.unseen = (unseen_share(parts[(ph, pw)], (ph, pw)) if (ph, pw) in parts
-                                   else _outside_share(sized[(ph, pw)]))
+                    self.unseen = fills.unseen if fills is not None else outside_share(
+                        sized[(ph, pw)])
             out.append(from_top_bottom(res, d))
         return out
 
@@ -576,18 +580,6 @@ def _unseen_rows(displacement: np.ndarray, w: int) -> float:
     h = len(sy)
     cols = np.where((sy < -0.5) | (sy > h - 0.5), w, np.minimum(w, np.floor(np.abs(dx) + 0.5)))
     return float(cols.sum()) / (h * w)
-
-
-def _outside_share(maps: tuple[np.ndarray, np.ndarray], step: int = 8) -> float:
-    """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge.
-
-    Counted on every ``step``-th pixel of every ``step``-th row (a 1080p frame's maps
-    whole: 10 ms).
-    """
-    h, w = maps[0].shape
-    mx, my = (np.ascontiguousarray(m[step // 2::step, step // 2::step]) for m in maps)
-    inside = cv2.bitwise_and(cv2.inRange(mx, -0.5, w - 0.5), cv2.inRange(my, -0.5, h - 0.5))
-    return 1.0 - cv2.countNonZero(inside) / float(mx.size)
 
 
 def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from unjello.motion.field import at_reference, both_axes, fill_unreliable, fill_unreliable_at, put
+from unjello.motion.field import at_reference, both_axes, fill_unreliable, put
 
 
 def test_put_and_both_axes_match_their_numpy_forms():
@@ -72,19 +72,3 @@ def test_a_few_stray_reliable_pixels_do_not_outweigh_the_prior():
     given = fill_unreliable(resid.copy(), ok, 12.0, prior=prior)
     assert plain[30, 44, 0] < -30  # alone, the stray pixel's flow fills around it
     assert given[30, 44, 0] == 5.0
-
-
-def test_the_fill_at_a_few_pixels_is_the_fill_of_the_whole_frame_there():
-    """``fill_unreliable_at`` (the warper's border ring) against ``fill_unreliable``: the
-    same values (within float rounding) at the pixels asked for, the rest untouched."""
-    rng = np.random.default_rng(3)
-    flow = rng.normal(0, 2, (90, 160, 2)).astype(np.float32)
-    ok = rng.uniform(size=(90, 160)) > 0.4
-    ok[:, :50] = False  # beyond the average's reach: the prior (one value a row)
-    prior = rng.normal(0, 1, (90, 2)).astype(np.float32)
-    whole = fill_unreliable(flow, ok, 12.0, prior=prior[:, None, :])
-    ring = np.zeros((90, 160), bool)
-    ring[:5], ring[:, -5:] = True, True
-    at = fill_unreliable_at(flow, ok, 12.0, np.nonzero(ring), prior)
-    np.testing.assert_allclose(at[ring], whole[ring], atol=1e-5)
-    assert np.array_equal(at[~ring], flow[~ring])

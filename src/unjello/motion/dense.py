@@ -37,7 +37,6 @@ still first frame is assumed: every frame is corrected to its own reference time
 from __future__ import annotations
 
 import dataclasses
-import functools
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
@@ -46,7 +45,6 @@ import cv2
 import numpy as np
 
 from ..kernels import residual_side
-from ..neighbours import INSET
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
@@ -56,7 +54,6 @@ from .field import (
     advected_velocity,
     at_reference,
     fill_unreliable,
-    fill_unreliable_at,
     rows_minus,
     scale_axes,
     smooth_field,
@@ -81,30 +78,11 @@ from .vibration import (
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
-#: Pixels from the border whose flows the warper follows past the edge (it reads them
-#: :data:`~unjello.neighbours.INSET` in, bilinearly): only there are failed ones filled.
-RING = int(INSET) + 3
-
-
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
     flow = optical_flow(cur, prev, preset, max_width, finest_scale)
     return flow, landing(flow)[2]
-
-
-@functools.cache
-def _border_ring(shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns of the pixels within :data:`RING` of the frame's border.
-
-    The warper follows these pixels' flows into a neighbour for what lies beyond the
-    edge (:func:`unjello.neighbours.neighbour_sources` reads the flow ``INSET`` in).
-    """
-    ring = np.ones(shape, bool)
-    ring[RING:-RING, RING:-RING] = False
-    ys, xs = np.nonzero(ring)
-    ys.flags.writeable = xs.flags.writeable = False
-    return ys, xs
 
 
 class DenseMethod(SafeField):
@@ -432,16 +410,17 @@ class DenseMethod(SafeField):
     def _fill_flows(self, fr: DenseFrame, t_rows: np.ndarray,
                     c_at: Callable[[np.ndarray], np.ndarray], u_rows: np.ndarray
                     ) -> tuple[tuple[int, np.ndarray], ...]:
-        """Return the flows to the neighbours that the warper follows past the frame's edge.
+        """Return the flows to the neighbours that the warper follows for what it did not see.
 
         The strip beyond the edge is taken from a neighbour along the flow of the pixels
-        nearest the edge, and a failed one there (a near pole the flow lost, content
-        entering the frame) carried it to an arbitrary place. Failed pixels are filled as
-        the residuals are (:func:`~unjello.motion.field.fill_unreliable`): the reliable
-        flow near them, or where none is near their row's camera model (the trajectory's
-        motion over the frame interval plus the row velocity's). The camera model alone
-        cost the Carla pairs 0.2 dB (forward motion, which a row model cannot give). Only
-        the ring the warper reads (:func:`_border_ring`) is filled.
+        nearest the edge, and background a near object uncovered along the flow beside it
+        (:mod:`unjello.neighbours`); a failed flow there (a near pole the flow lost,
+        content entering the frame) carried it to an arbitrary place. Failed pixels are
+        filled as the residuals are (:func:`~unjello.motion.field.fill_unreliable`): the
+        reliable flow near them, or where none is near their row's camera model (the
+        trajectory's motion over the frame interval plus the row velocity's). The camera
+        model alone cost the Carla pairs 0.2 dB (forward motion, which a row model cannot
+        give).
         """
         near = {f.index: f for f in self._frames}
         out = []
@@ -452,8 +431,7 @@ class DenseMethod(SafeField):
             if ok is not None and other is not None and not ok.all():
                 dt = other.start - fr.start  # a row's time there, less its time here
                 model = (c_at(t_rows + dt) - c_at(t_rows) + u_rows * dt).astype(np.float32)
-                flow = fill_unreliable_at(flow, ok, self.config.fill_sigma,
-                                          _border_ring(ok.shape), model)
+                flow = fill_unreliable(flow, ok, self.config.fill_sigma, prior=model[:, None])
             out.append((offset, flow))
         return tuple(out)
 

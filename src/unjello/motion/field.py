@@ -16,7 +16,7 @@ from ..kernels import projective_irls, quadratic_ahead
 from ..timing import pixel_grid
 from .flow import patch_cost
 
-__all__ = ["fill_unreliable", "fill_unreliable_at", "smooth_field", "projective_flow",
+__all__ = ["fill_unreliable", "smooth_field", "projective_flow",
            "fit_projective", "advected_velocity", "snap_to_global", "put", "both_axes",
            "at_reference", "scale_axes", "rows_minus"]
 
@@ -112,8 +112,14 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
     avg = num / both_axes(np.maximum(w, 1e-3))
     if prior is None:
         avg[w <= 1e-3] = 0.0
-    else:
-        np.copyto(avg, prior, where=(w <= PRIOR_BELOW)[..., None])
+    elif float(w.min()) <= PRIOR_BELOW:
+        # (np.copyto with a broadcast mask, or NumPy broadcasting a column out, is ten
+        # times slower: see :func:`put`)
+        if prior.shape[:2] == (h, 1):
+            prior = cv2.resize(np.ascontiguousarray(prior, avg.dtype), (w_, h),
+                               interpolation=cv2.INTER_NEAREST).reshape(avg.shape)
+        put(avg, np.ascontiguousarray(np.broadcast_to(prior, avg.shape), avg.dtype),
+            w <= PRIOR_BELOW)
     put(avg, resid, ok)
     return avg
 
@@ -133,44 +139,6 @@ def _reliable_sums(resid: np.ndarray, ok: np.ndarray, sigma: float
     numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
     return (cv2.GaussianBlur(okf, (0, 0), sigma / 4),
             cv2.GaussianBlur(numf, (0, 0), sigma / 4))
-
-
-def fill_unreliable_at(resid: np.ndarray, ok: np.ndarray, sigma: float,
-                       where: tuple[np.ndarray, np.ndarray], prior: np.ndarray) -> np.ndarray:
-    """:func:`fill_unreliable` at the pixels ``where`` (rows, columns) only; a copy.
-
-    The average is taken at a quarter of the resolution and interpolated at those
-    pixels alone, so that a thin ring of them costs a fraction of the whole frame's
-    fill. ``prior`` has one value a row, shape (h, 2).
-    """
-    out = resid.copy()
-    bad = ~ok[where]
-    ys, xs = where[0][bad], where[1][bad]
-    if not ys.size:
-        return out
-    if not ok.any():
-        out[ys, xs] = prior[ys]
-        return out
-    h, w = ok.shape
-    okf, numf = _reliable_sums(resid, ok, sigma)
-    sh, sw = okf.shape
-    # Bilinear at the pixels' centres on the quarter grid (as cv2.resize takes them).
-    fx = np.clip((xs + 0.5) * sw / w - 0.5, 0, sw - 1)
-    fy = np.clip((ys + 0.5) * sh / h - 0.5, 0, sh - 1)
-    x0 = np.minimum(fx.astype(int), sw - 2).clip(0)
-    y0 = np.minimum(fy.astype(int), sh - 2).clip(0)
-    x1, y1 = np.minimum(x0 + 1, sw - 1), np.minimum(y0 + 1, sh - 1)
-    ax, ay = (fx - x0)[:, None], (fy - y0)[:, None]
-
-    def at(a: np.ndarray) -> np.ndarray:
-        a = a.reshape(sh, sw, -1)
-        return ((a[y0, x0] * (1 - ax) + a[y0, x1] * ax) * (1 - ay)
-                + (a[y1, x0] * (1 - ax) + a[y1, x1] * ax) * ay)
-
-    weight = at(okf)
-    avg = at(numf) / np.maximum(weight, 1e-3)
-    out[ys, xs] = np.where(weight <= PRIOR_BELOW, prior[ys], avg)
-    return out
 
 
 def smooth_field(field: np.ndarray) -> np.ndarray:
