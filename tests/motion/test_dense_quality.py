@@ -109,8 +109,9 @@ def test_background_a_near_pole_uncovered_comes_from_the_neighbour_that_saw_it(m
     31.27 -> 32.57 dB, frame 32.31 -> 33.95; astronaut 25 % with readout 1.0, frame 22.34 ->
     24.16; no frame of a case lower by more than 0.07 dB; the Carla town clip (forward
     motion) byte for byte the same."""
-    import unjello.neighbours as neighbours
     from benchmarks.edges import run
+
+    import unjello.neighbours as neighbours
 
     now = run("rocket", 0.25, 0.4, 10, (320, 180), near=1.3)
     monkeypatch.setattr(neighbours, "uncovered", lambda *a: None)

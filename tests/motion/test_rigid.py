@@ -5,7 +5,14 @@ import numpy as np
 import pytest
 from skimage import data
 
-from unjello.motion.rigid import Spin, carried, fit_drift, pattern_search, predict
+from unjello.motion.rigid import (
+    PathTrack,
+    Spin,
+    carried,
+    fit_drift,
+    pattern_search,
+    predict,
+)
 from unjello.motion.spin import keep_spinning, spin_field, spin_source
 from unjello.simulate import Motion, pole_layers, simulate
 from unjello.timing import SensorTiming
@@ -210,3 +217,38 @@ def test_a_drifts_source_row_by_row_is_the_full_frames():
     pixels = spin_source(Spin(np.array([50.0, 40.0]), 1e-300, 1.0, 5.0, drift=drift), shape,
                          track, 0.5, 0.9)
     assert np.abs(rows - pixels).max() < 1e-4
+
+
+def test_a_path_track_is_the_path_plus_its_velocities_to_the_bit():
+    """PathTrack (one complex interpolation) against the track it replaces: the camera's
+    path rounded to float32 plus the row velocity, scaled to a shrunk copy, carried by a
+    drift -- the same values, so the rigid fits choose the same motions."""
+    rng = np.random.default_rng(4)
+    times = np.linspace(-1.5, 2.5, 60)
+    path = np.cumsum(rng.normal(0, 3, (60, 2)), axis=0)
+    u, scale, drift = np.array([0.7, -0.2]), np.array([0.25, 0.5]), np.array([3.0, -1.5])
+
+    def c_at(t):
+        return np.stack([np.interp(t, times, path[:, 0]), np.interp(t, times, path[:, 1])],
+                        axis=-1).astype(np.float32)
+
+    def plain(t):
+        return c_at(t) + np.asarray(t)[..., None] * u
+
+    def shrunk(t):
+        return np.asarray(plain(t)) * scale
+
+    track = PathTrack(times, path, u)
+    t = rng.uniform(-2.0, 3.0, (7, 9))
+    assert np.array_equal(track(t), plain(t))
+    assert np.array_equal(track.complex(t), plain(t)[..., 0] + 1j * plain(t)[..., 1])
+    assert np.array_equal(track.scaled(scale)(t), shrunk(t))
+    assert np.array_equal(carried(track.scaled(scale), drift)(t),
+                          carried(shrunk, drift)(t))
+    pts = rng.uniform(0, 60, (40, 2))
+    for omega in (np.zeros(3), np.array([0.0, 0.3, -1.1])):
+        centre, drifts = rng.uniform(10, 50, (3, 2)), rng.normal(0, 2, (3, 2))
+        a = predict(pts, 0.01 * pts[:, 1], centre, omega, track, 0.3, 1.0, 0.01, drift=drifts)
+        b = predict(pts, 0.01 * pts[:, 1], centre, omega, plain, 0.3, 1.0, 0.01, drift=drifts)
+        assert np.allclose(a, b, atol=1e-9)
+

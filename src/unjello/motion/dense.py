@@ -67,6 +67,7 @@ from .flow import (
     optical_flow,
     row_flows,
 )
+from .rigid import PathTrack
 from .vibration import (
     PROBE_CONTRAST,
     PROBE_WAIT,
@@ -393,7 +394,7 @@ class DenseMethod(SafeField):
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
         field, folds, kept, spun, said, fronts = self._safe_field(
             fr, rows_minus(cam_disp, field_resid), cam_disp, fallback, entering, float(t_ref),
-            c_at, u_rows.mean(axis=0))
+            PathTrack(grid_t, c), u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
+from . import rigid
 from .flow import FlowSettings, landing, misses
 from .safety import (
     failed_blobs,
@@ -209,10 +210,7 @@ class SafeField:
             self._spins = []
             return field, folds, 0.0, "", ()
 
-        def track(t: np.ndarray) -> np.ndarray:
-            """Return what carries an object: the camera's path plus the row velocity."""
-            return c_at(t) + np.asarray(t)[..., None] * u_mean
-
+        track = rigid.carried(c_at, u_mean)  # what carries an object: path, row velocity
         # Last frame's rotations, carried to this frame's reference time.
         hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
                  for c, om, t in self._spins]

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-__all__ = ["Spin", "Track", "carried", "costs", "fit_drift", "prepare", "rotate",
+__all__ = ["Spin", "Track", "PathTrack", "carried", "costs", "fit_drift", "prepare", "rotate",
            "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
 
 #: Grey-level difference at which the match cost saturates (an occluded or
@@ -77,10 +77,60 @@ def rotate(v: np.ndarray, a: np.ndarray) -> np.ndarray:
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
 
 
+class PathTrack:
+    """A track from a path sampled at ``times`` (linear between, held at the ends).
+
+    ``track(t) = (c(t) + t u) * scale + t drift``, per axis, with ``c(t)`` rounded to
+    float32 as the dense method's camera path is. The rigid fits evaluate their track
+    thousands of times a frame (:func:`predict`'s fixed point, for every candidate):
+    :meth:`complex` gives it as ``x + iy`` with one interpolation, where a general track
+    takes two and a stack (a 320x180 pole clip's correction 0.29 -> 0.22 CPU s a frame, the
+    same output; ``docs/measurements.md``).
+    """
+
+    def __init__(self, times: np.ndarray, path: np.ndarray, u: np.ndarray | complex = 0.0,
+                 scale: np.ndarray | tuple[float, float] = (1.0, 1.0),
+                 drift: complex = 0.0) -> None:
+        self.times = np.asarray(times, np.float64)
+        self.path = np.asarray(path)[:, 0] + 1j * np.asarray(path)[:, 1]
+        self.u = complex(*u) if np.ndim(u) else complex(u)
+        self.scale = (float(scale[0]), float(scale[1]))
+        self.drift = complex(drift)
+
+    def complex(self, t: np.ndarray) -> np.ndarray:
+        """Return the track at times ``t`` (any shape) as complex positions, complex128."""
+        t = np.asarray(t, np.float64)
+        z = np.interp(t, self.times, self.path).astype(np.complex64) + t * self.u
+        if self.scale != (1.0, 1.0):
+            z = z.real * self.scale[0] + 1j * (z.imag * self.scale[1])
+        return z + t * self.drift if self.drift else z
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Return the track at times ``t``: shape ``t.shape + (2,)``."""
+        z = self.complex(t)
+        return np.stack([z.real, z.imag], axis=-1)
+
+    def carried(self, drift: np.ndarray) -> PathTrack:
+        """Return this track with a velocity ``drift`` (x, y per frame interval) added."""
+        out = PathTrack.__new__(PathTrack)
+        out.times, out.path, out.u, out.scale = self.times, self.path, self.u, self.scale
+        out.drift = self.drift + complex(drift[0], drift[1])
+        return out
+
+    def scaled(self, scale: np.ndarray) -> PathTrack:
+        """Return this track in pixels ``scale`` (x, y) times as large."""
+        out = self.carried((0.0, 0.0))
+        out.scale = (self.scale[0] * float(scale[0]), self.scale[1] * float(scale[1]))
+        out.drift = self.drift.real * float(scale[0]) + 1j * self.drift.imag * float(scale[1])
+        return out
+
+
 def carried(track: Track, drift: np.ndarray) -> Track:
     """Return ``track`` with a constant velocity ``drift`` (px per frame interval) added."""
     if not np.any(drift):
         return track
+    if isinstance(track, PathTrack):
+        return track.carried(drift)
     v = np.asarray(drift, np.float64)
     return lambda t: np.asarray(track(t), np.float64) + np.asarray(t, np.float64)[..., None] * v
 
@@ -93,6 +143,8 @@ def at(track: Track, t: np.ndarray) -> np.ndarray:
 
 def _complex_at(track: Track, t: np.ndarray) -> np.ndarray:
     """``track`` at times of any shape, as complex positions ``x + iy``."""
+    if isinstance(track, PathTrack):
+        return track.complex(t)
     p = at(track, t)
     return p[..., 0] + 1j * p[..., 1]
 
@@ -117,10 +169,10 @@ def predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndar
     if not np.any(omega):  # drifts alone
         vy, which = np.unique(dz.imag, return_inverse=True)
         vy = vy[:, None]
-        ty_s = at(track, t_s)[..., 1]
+        ty_s = _complex_at(track, t_s).imag
         t_o = np.repeat(start, len(vy), axis=0)
         for _ in range(iterations - 1):
-            t_o = offset + row_time * (pts[None, :, 1] + at(track, t_o)[..., 1] - ty_s
+            t_o = offset + row_time * (pts[None, :, 1] + _complex_at(track, t_o).imag - ty_s
                                        + vy * (t_o - t_s[None]))
         t_o = t_o[which.ravel()]
         q = z[None] + _complex_at(track, t_o) - _complex_at(track, t_s)[None] + dz * (
@@ -255,7 +307,8 @@ def prepare(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     sreg = cv2.resize(region.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
     sy, sx = np.nonzero(sreg)
     scale = np.array([size[0] / w, size[1] / h])
-    strack: Track = lambda t: np.asarray(track(t)) * scale  # noqa: E731
+    strack: Track = (track.scaled(scale) if isinstance(track, PathTrack)
+                     else lambda t: np.asarray(track(t)) * scale)
     sothers = [(o, off) for o, (_, off) in zip(small[1:], others, strict=True)]
     spts = moving(small[0], sothers, np.stack([sx, sy], axis=1).astype(np.float64),
                   strack, readout / size[1])
