@@ -177,8 +177,11 @@ STAGES = (
     ("backward map (fixed point, working grid)", [("unjello.warp", "field_maps")]),
     ("map upsampling (per plane size)", [("unjello.warp", "resize_maps")]),
     ("remap (every plane)", [("unjello.warp", "apply_maps")]),
-    ("fill from neighbours", [("unjello.warp", "neighbour_sources"),
-                              ("unjello.warp", "fill_from_neighbours")]),
+    ("fill from neighbours", [("unjello.neighbours", "neighbour_sources"),
+                              ("unjello.neighbours", "fill_from_neighbours"),
+                              ("unjello.neighbours", "uncovered"),
+                              ("unjello.neighbours", "confirmed"),
+                              ("unjello.neighbours", "uncovered_sources")]),
     ("per-scanline maps", [("unjello.warp", "remap_maps")]),
     ("warp: the rest", [("unjello.warp.PictureWarper", "__call__")]),
 )
