@@ -171,8 +171,7 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
 
 
 def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: list[np.ndarray],
-              offsets: list[int], reference_row: float
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+              offsets: list[int], reference_row: float) -> tuple[np.ndarray, ...] | None:
     """Output pixels showing background that a nearer object covered in this frame.
 
     A near object (a pole passing in front of a pan) moves across its background:
@@ -206,9 +205,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
 
     Returns
     -------
-    (ys, xs, k, delta) or None
-        The pixels, the index of the flow whose neighbour to read, and where to read it
-        less the pixel (grid pixels); None where nothing is uncovered.
+    (ys, xs, k, delta, qy, qx) or None
+        The pixels, the index of the flow whose neighbour to read, where to read it less
+        the pixel (grid pixels), and the pixel whose displacement it took (for
+        :func:`confirmed`); None where nothing is uncovered.
     """
     mx, my = maps
     h, w = mx.shape
@@ -230,13 +230,13 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     half = [np.ascontiguousarray(a[::2, ::2]) for a in (mx, my, gx, gy)]
     if cv2.countNonZero(unsettled(*half)[2]) == half[0].size:
         return None
-    disp, own, settled = unsettled(mx, my, gx, gy)
-    inside = cv2.bitwise_and(cv2.inRange(mx, 0, w - 1), cv2.inRange(my, 0, h - 1))
-    suspect = cv2.bitwise_and(inside, cv2.bitwise_not(settled))
-    if not cv2.countNonZero(suspect):
+    disp, own, settles = unsettled(mx, my, gx, gy)
+    within = cv2.bitwise_and(cv2.inRange(mx, 0, w - 1), cv2.inRange(my, 0, h - 1))
+    suspects = cv2.bitwise_and(within, cv2.bitwise_not(settles))
+    if not cv2.countNonZero(suspects):
         return None
-    ys, xs = np.nonzero(suspect)
-    settled, inside, suspect = settled > 0, inside > 0, suspect > 0
+    ys, xs = np.nonzero(suspects)
+    settled, inside = settles > 0, within > 0
     # The background's displacement: the median of the row (a near object is narrow).
     # Parallax is along it; across it a flat object's flow is unsure (the aperture).
     rows, at = np.unique(ys, return_inverse=True)
@@ -282,8 +282,8 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     return ys[found], xs[found], k[found], delta[found], qy[found], qx[found]
 
 
-def uncovered_sources(found: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-                      grid: tuple[int, int], plane: tuple[int, int]) -> list:
+def uncovered_sources(found: tuple[np.ndarray, ...], grid: tuple[int, int],
+                      plane: tuple[int, int]) -> list:
     """Parts (as :func:`neighbour_sources`) of a plane for the pixels :func:`uncovered` found.
 
     Each pixel of the maps' ``grid`` stands for the plane's pixels nearest it, all read

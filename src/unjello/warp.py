@@ -502,13 +502,15 @@ class PictureWarper:
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         fills = None
         if maps is not None and around and fill == "nearest":
-            have = [(k, around[k], flow) for k, flow in motion.neighbours if around.get(k)]
+            have = [(k, pic, flow) for k, flow in motion.neighbours
+                    if (pic := around.get(k)) is not None]
             if have:  # the background nearer objects uncovered too, where nothing is composed
                 plain = self.undistort is None and motion.reframe.identity
                 fills = NeighbourFill(
                     maps, [([to_top_bottom(p, d) for p in pic], flow) for _, pic, flow in have],
                     [k for k, _, _ in have], self.timing,
-                    grid_field(motion.field, maps[0].shape, (h, w)) if plain else None,
+                    grid_field(motion.field, maps[0].shape, (h, w))
+                    if plain and motion.field is not None else None,
                     coarse=self.undistort is None)
         out = []
         for i, plane in enumerate(planes):

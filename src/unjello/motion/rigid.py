@@ -88,14 +88,13 @@ class PathTrack:
     same output; ``docs/measurements.md``).
     """
 
-    def __init__(self, times: np.ndarray, path: np.ndarray, u: np.ndarray | complex = 0.0,
-                 scale: np.ndarray | tuple[float, float] = (1.0, 1.0),
-                 drift: complex = 0.0) -> None:
+    def __init__(self, times: np.ndarray, path: np.ndarray,
+                 u: np.ndarray | tuple[float, float] = (0.0, 0.0)) -> None:
         self.times = np.asarray(times, np.float64)
         self.path = np.asarray(path)[:, 0] + 1j * np.asarray(path)[:, 1]
-        self.u = complex(*u) if np.ndim(u) else complex(u)
-        self.scale = (float(scale[0]), float(scale[1]))
-        self.drift = complex(drift)
+        self.u = complex(float(u[0]), float(u[1]))
+        self.scale = (1.0, 1.0)
+        self.drift = 0j
 
     def complex(self, t: np.ndarray) -> np.ndarray:
         """Return the track at times ``t`` (any shape) as complex positions, complex128."""
@@ -110,14 +109,14 @@ class PathTrack:
         z = self.complex(t)
         return np.stack([z.real, z.imag], axis=-1)
 
-    def carried(self, drift: np.ndarray) -> PathTrack:
+    def carried(self, drift: np.ndarray | tuple[float, float]) -> PathTrack:
         """Return this track with a velocity ``drift`` (x, y per frame interval) added."""
         out = PathTrack.__new__(PathTrack)
         out.times, out.path, out.u, out.scale = self.times, self.path, self.u, self.scale
-        out.drift = self.drift + complex(drift[0], drift[1])
+        out.drift = self.drift + complex(float(drift[0]), float(drift[1]))
         return out
 
-    def scaled(self, scale: np.ndarray) -> PathTrack:
+    def scaled(self, scale: np.ndarray | tuple[float, float]) -> PathTrack:
         """Return this track in pixels ``scale`` (x, y) times as large."""
         out = self.carried((0.0, 0.0))
         out.scale = (self.scale[0] * float(scale[0]), self.scale[1] * float(scale[1]))
