@@ -19,8 +19,8 @@ from .kernels import outside_pixels
 from .timing import SensorTiming, pixel_grid
 
 __all__ = ["NeighbourFill", "neighbour_sources", "fill_from_neighbours", "unseen_share",
-           "outside_share",
-           "uncovered", "uncovered_sources", "INSET", "SETTLED", "REACH", "UNIFORM", "GROUP"]
+           "outside_share", "uncovered", "uncovered_sources", "confirmed", "INSET", "SETTLED",
+           "REACH", "UNIFORM", "GROUP"]
 
 #: Pixels of the flow's grid between the frame's border and where the flow carried past
 #: it is read (:func:`neighbour_sources`).
@@ -257,9 +257,9 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     score = np.abs(disp[qy, qx] - around[:, None]).sum(axis=-1) + 0.02 * np.hypot(*step[0].T)
     score[~usable] = np.inf
     best = score.argmin(axis=1)
-    rows = np.flatnonzero(np.isfinite(score[np.arange(best.size), best]))
-    qy, qx = qy[rows, best[rows]], qx[rows, best[rows]]
-    ys, xs, d, along = ys[rows], xs[rows], disp[qy, qx], along[rows]
+    some = np.flatnonzero(np.isfinite(score[np.arange(best.size), best]))  # a donor found
+    qy, qx = qy[some, best[some]], qx[some, best[some]]
+    ys, xs, d, along = ys[some], xs[some], disp[qy, qx], along[some]
     # Uncovered where the background's source in this frame moves otherwise.
     there = _sample(field, xs + d[:, 0], ys + d[:, 1])
     hidden = np.abs(((there - d) * along).sum(axis=1)) > SETTLED
@@ -319,11 +319,11 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
     Checked on a plane at each pixel's centre: the neighbour's sample must be nearer in
     value to the background beside it (the output at the pixel whose displacement it
     took and the next two on from it, away from the pixel) than the output there is now
-    (the near object stretched over it). A wrong displacement (a field that does not settle where
-    no object is) would otherwise bring in whatever the neighbour shows there. What is
-    left must come in groups of at least :data:`GROUP` pixels of the grid: an
-    object's edge is uncovered along its length, and single pixels drawn from elsewhere
-    show as specks.
+    (the near object stretched over it). A wrong displacement (a field that does not
+    settle where no object is) would otherwise bring in whatever the neighbour shows
+    there. What is left must come in groups of at least :data:`GROUP` pixels of the
+    grid: an object's edge is uncovered along its length, and single pixels drawn from
+    elsewhere show as specks.
     """
     ys, xs, k, delta, qy, qx = found
     (h, w), (ph, pw) = grid, out.shape[:2]
@@ -347,7 +347,7 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
     keep = np.abs(seen - back).sum(axis=1) < np.abs(now - back).sum(axis=1)
     mask = np.zeros(grid, np.uint8)
     mask[ys[keep], xs[keep]] = 1
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     keep &= stats[labels[ys, xs], cv2.CC_STAT_AREA] >= GROUP
     if not keep.any():
         return None

@@ -245,6 +245,9 @@ def test_a_path_track_is_the_path_plus_its_velocities_to_the_bit():
     assert np.array_equal(track.scaled(scale)(t), shrunk(t))
     assert np.array_equal(carried(track.scaled(scale), drift)(t),
                           carried(shrunk, drift)(t))
+    # The dense method's: the path alone, carried by the row velocity, then by a drift.
+    assert np.array_equal(carried(carried(PathTrack(times, path), u), drift)(t),
+                          carried(carried(c_at, u), drift)(t))
     pts = rng.uniform(0, 60, (40, 2))
     for omega in (np.zeros(3), np.array([0.0, 0.3, -1.1])):
         centre, drifts = rng.uniform(10, 50, (3, 2)), rng.normal(0, 2, (3, 2))

@@ -113,7 +113,11 @@ class PathTrack:
         """Return this track with a velocity ``drift`` (x, y per frame interval) added."""
         out = PathTrack.__new__(PathTrack)
         out.times, out.path, out.u, out.scale = self.times, self.path, self.u, self.scale
-        out.drift = self.drift + complex(float(drift[0]), float(drift[1]))
+        v = complex(float(drift[0]), float(drift[1]))
+        if not self.u and not self.drift and self.scale == (1.0, 1.0):
+            out.u, out.drift = v, 0j  # added where a lambda would: the path's own velocity
+        else:
+            out.drift = self.drift + v
         return out
 
     def scaled(self, scale: np.ndarray | tuple[float, float]) -> PathTrack:
