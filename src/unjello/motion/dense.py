@@ -79,6 +79,7 @@ from .vibration import (
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
+
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
@@ -359,9 +360,10 @@ class DenseMethod(SafeField):
         t_rows = t_rows - fr.start
         t_ref = t_ref - fr.start
 
+        path = PathTrack(grid_t, c)  # the camera's path (float32), and a rigid fit's track
+
         def c_at(t: np.ndarray) -> np.ndarray:
-            return np.stack([np.interp(t, grid_t, c[:, 0]), np.interp(t, grid_t, c[:, 1])],
-                            axis=-1).astype(np.float32)
+            return path(t).astype(np.float32)
 
         cam_rows = c_at(t_rows)
         cam_disp = cam_rows - c_at(np.array([t_ref]))[0]
@@ -394,7 +396,7 @@ class DenseMethod(SafeField):
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
         field, folds, kept, spun, said, fronts = self._safe_field(
             fr, rows_minus(cam_disp, field_resid), cam_disp, fallback, entering, float(t_ref),
-            PathTrack(grid_t, c), u_rows.mean(axis=0))
+            path, u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.

@@ -16,9 +16,9 @@ from ..kernels import projective_irls, quadratic_ahead
 from ..timing import pixel_grid
 from .flow import patch_cost
 
-__all__ = ["fill_unreliable", "smooth_field", "projective_flow",
-           "fit_projective", "advected_velocity", "snap_to_global", "put", "both_axes",
-           "at_reference", "scale_axes", "rows_minus"]
+__all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
+           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",
+           "scale_axes", "rows_minus"]
 
 
 def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
@@ -105,10 +105,15 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
             np.broadcast_to(prior, resid.shape).astype(resid.dtype))
     if ok.all() or sigma <= 0:
         return resid
+    # The average is smooth: blur at a quarter of the resolution, then interpolate back.
     h, w_ = ok.shape
-    okf, numf = _reliable_sums(resid, ok, sigma)
-    w = cv2.resize(okf, (w_, h))
-    num = cv2.resize(numf, (w_, h))
+    small = (max(1, w_ // 4), max(1, h // 4))
+    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
+    kept = np.zeros_like(resid)
+    put(kept, resid, ok)
+    numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
+    w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
+    num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
     avg = num / both_axes(np.maximum(w, 1e-3))
     if prior is None:
         avg[w <= 1e-3] = 0.0
@@ -122,23 +127,6 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
             w <= PRIOR_BELOW)
     put(avg, resid, ok)
     return avg
-
-
-def _reliable_sums(resid: np.ndarray, ok: np.ndarray, sigma: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian sums of the reliable pixels' weight and values, at a quarter resolution.
-
-    The average they give is smooth: blurred at a quarter of the resolution, to be
-    interpolated back.
-    """
-    h, w = ok.shape
-    small = (max(1, w // 4), max(1, h // 4))
-    okf = cv2.resize(ok.astype(np.float32), small, interpolation=cv2.INTER_AREA)
-    kept = np.zeros_like(resid)
-    put(kept, resid, ok)
-    numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
-    return (cv2.GaussianBlur(okf, (0, 0), sigma / 4),
-            cv2.GaussianBlur(numf, (0, 0), sigma / 4))
 
 
 def smooth_field(field: np.ndarray) -> np.ndarray:
