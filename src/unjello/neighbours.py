@@ -1,13 +1,12 @@
-"""What a frame does not see, taken from its neighbours.
+"""What a frame does not see beyond its edge, taken from its neighbours.
 
 During fast motion the reference time shows content that the frame's own scanlines never
 saw (its edges): the backward maps point outside the frame there. A neighbouring frame
 often saw it; the frame's flow to that neighbour (extended past the edge) says where
 (:func:`neighbour_sources`), and :func:`fill_from_neighbours` samples it there, instead of
-repeating the edge. Inside the frame, a nearer object moving across its background
-(parallax) covered, when a row was read, background the reference time shows beside it:
-the maps stretch the object's edge over it, and :func:`uncovered` takes it from the
-neighbour that saw it instead. Used by :class:`unjello.warp.PictureWarper`.
+repeating the edge. Background a nearer object uncovered is :mod:`unjello.uncovered`'s,
+nearer objects leaving the frame :mod:`unjello.leaving`'s; :class:`unjello.neighbour_fill.
+NeighbourFill` puts them together for :class:`unjello.warp.PictureWarper`.
 """
 
 from __future__ import annotations
@@ -16,18 +15,16 @@ import cv2
 import numpy as np
 
 from .kernels import outside_pixels
-from .timing import SensorTiming, pixel_grid
 
-__all__ = ["NeighbourFill", "neighbour_sources", "fill_from_neighbours", "unseen_share",
-           "outside_share", "uncovered", "uncovered_sources", "confirmed", "INSET", "SETTLED",
-           "REACH", "UNIFORM", "GROUP"]
+__all__ = ["neighbour_sources", "fill_from_neighbours", "unseen_share", "outside_share",
+           "sample_points", "INSET"]
 
 #: Pixels of the flow's grid between the frame's border and where the flow carried past
 #: it is read (:func:`neighbour_sources`).
 INSET = 3.0
 
 
-def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def sample_points(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Bilinear samples of ``image`` at the points ``(x, y)`` (1-D arrays)."""
     n = x.size
     cols = 1024
@@ -38,21 +35,6 @@ def _sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     out = cv2.remap(image, mx.reshape(rows, cols), my.reshape(rows, cols), cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_REPLICATE)
     return out.reshape(rows * cols, *image.shape[2:])[:n]
-
-
-#: A backward map whose source's own displacement differs from the map's by more than
-#: this (pixels of the maps' grid) has not settled on one surface.
-SETTLED = 2.0
-#: Farthest (pixels of the maps' grid) that an uncovered pixel's background is looked for.
-REACH = 12
-#: Rows whose displacement departs from their median by more than this share of it (the
-#: median departure) are left alone: where the background itself moves unevenly (forward
-#: motion, depth), its displacement beside an object is no guide to the one behind it.
-UNIFORM = 0.1
-#: Fewest pixels of the grid, side by side, taken as uncovered background.
-GROUP = 6
-_DIRECTIONS = np.array([(0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1)])
-_STEPS = np.array([1, 2, 3, 4, 6, 8, REACH])
 
 
 def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
@@ -134,7 +116,7 @@ def _follow(flows: list[np.ndarray], which: list[int], ys: np.ndarray, xs: np.nd
             break
         hf, wf = flow.shape[:2]
         # Past the edge, the flow a few pixels in: the border's own is DIS's least sure.
-        f = _sample(flow, np.clip((sx + 0.5) * (wf / w) - 0.5, INSET, wf - 1 - INSET),
+        f = sample_points(flow, np.clip((sx + 0.5) * (wf / w) - 0.5, INSET, wf - 1 - INSET),
                     np.clip((sy + 0.5) * (hf / h) - 0.5, INSET, hf - 1 - INSET))
         nx = sx + f[:, 0] * (w / wf)
         ny = sy + f[:, 1] * (h / hf)
@@ -166,192 +148,8 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
     """
     for k, ys, xs, nx, ny in parts:
         if ys.size and k >= 0:
-            out[ys, xs] = _sample(planes[k], nx, ny)
+            out[ys, xs] = sample_points(planes[k], nx, ny)
     return out
-
-
-def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: list[np.ndarray],
-              offsets: list[int], reference_row: float) -> tuple[np.ndarray, ...] | None:
-    """Output pixels showing background that a nearer object covered in this frame.
-
-    A near object (a pole passing in front of a pan) moves across its background:
-    between the time a row was read and the reference time it uncovers background on
-    one side. The frame never saw it there: no source pixel lands on it, and the
-    backward maps do not settle (their source's own displacement differs from theirs
-    by more than :data:`SETTLED` px along the row's motion); drawn, the object shows
-    wider than it is. The background goes on moving as around it: each such pixel
-    takes the displacement of the settled pixel within :data:`REACH` (along eight
-    directions) nearest its row's median (the background's, where the object is
-    narrow), in rows that move as one (:data:`UNIFORM`: a pan over a far background,
-    not forward motion). Where that displacement leads to a source that moves
-    otherwise (the object, in this frame), a neighbour saw the background: it is read
-    there along that pixel's flow -- for a row read after the reference, in the
-    previous frame, which the object had not yet covered; before it, in the next one.
-    Across the row's motion a flat object's flow is unsure (the aperture): only the
-    part along it counts. :func:`confirmed` then checks each pixel on the picture.
-
-    Parameters
-    ----------
-    maps : tuple of ndarray of shape (h, w)
-        Backward maps on the flows' grid (sources in its pixels).
-    field : ndarray of shape (h, w, 2)
-        The forward displacement ``p = s - field(s)`` the maps invert, in grid pixels.
-    flows : list of ndarray of shape (h, w, 2)
-        Flow from this frame to each neighbour.
-    offsets : list of int
-        Each flow's neighbour (-1: the previous frame, 1: the next).
-    reference_row : float
-        The reference scanline (pixels of the grid, top-bottom).
-
-    Returns
-    -------
-    (ys, xs, k, delta, qy, qx) or None
-        The pixels, the index of the flow whose neighbour to read, where to read it less
-        the pixel (grid pixels), and the pixel whose displacement it took (for
-        :func:`confirmed`); None where nothing is uncovered.
-    """
-    mx, my = maps
-    h, w = mx.shape
-    if field.shape[:2] != (h, w) or any(f.shape[:2] != (h, w) for f in flows):
-        return None  # not on one grid: not followed
-    gx, gy = pixel_grid(h, w)
-
-    def unsettled(mx: np.ndarray, my: np.ndarray, gx: np.ndarray, gy: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Return the maps' displacement, their sources' own and where the two agree."""
-        disp = cv2.merge([mx - gx, my - gy])
-        own = cv2.remap(field, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        # (OpenCV's per-channel range test: NumPy's reductions over an axis of two are slow)
-        return disp, own, cv2.inRange(cv2.subtract(own, disp), (-SETTLED, -SETTLED),
-                                      (SETTLED, SETTLED))
-
-    # Every other pixel of every other row first: most frames have nothing uncovered, and
-    # what is comes in groups (GROUP) wider than that.
-    half = [np.ascontiguousarray(a[::2, ::2]) for a in (mx, my, gx, gy)]
-    if cv2.countNonZero(unsettled(*half)[2]) == half[0].size:
-        return None
-    disp, own, settles = unsettled(mx, my, gx, gy)
-    within = cv2.bitwise_and(cv2.inRange(mx, 0, w - 1), cv2.inRange(my, 0, h - 1))
-    suspects = cv2.bitwise_and(within, cv2.bitwise_not(settles))
-    if not cv2.countNonZero(suspects):
-        return None
-    ys, xs = np.nonzero(suspects)
-    settled, inside = settles > 0, within > 0
-    # The background's displacement: the median of the row (a near object is narrow).
-    # Parallax is along it; across it a flat object's flow is unsure (the aperture).
-    rows, at = np.unique(ys, return_inverse=True)
-    each = disp[rows, ::2]
-    middle = np.median(each, axis=1)
-    spread = np.median(np.hypot(*(each - middle[:, None]).transpose(2, 0, 1)), axis=1)
-    around, size = middle[at], np.hypot(*middle.T)[at]
-    along = around / np.maximum(size, 1e-6)[:, None]
-    keep = ((size >= SETTLED) & (spread[at] <= UNIFORM * size)
-            & (np.abs(((own - disp)[ys, xs] * along).sum(axis=1)) > SETTLED))
-    ys, xs, around, along = ys[keep], xs[keep], around[keep], along[keep]
-    # Candidates along eight directions, (n, c): the nearest to the background's motion.
-    step = (_DIRECTIONS[None, :, None, :] * _STEPS[None, None, :, None]).reshape(1, -1, 2)
-    qy, qx = ys[:, None] + step[..., 0], xs[:, None] + step[..., 1]
-    usable = (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
-    qy, qx = qy.clip(0, h - 1), qx.clip(0, w - 1)
-    usable &= inside[qy, qx] & settled[qy, qx]
-    score = np.abs(disp[qy, qx] - around[:, None]).sum(axis=-1) + 0.02 * np.hypot(*step[0].T)
-    score[~usable] = np.inf
-    best = score.argmin(axis=1)
-    some = np.flatnonzero(np.isfinite(score[np.arange(best.size), best]))  # a donor found
-    qy, qx = qy[some, best[some]], qx[some, best[some]]
-    ys, xs, d, along = ys[some], xs[some], disp[qy, qx], along[some]
-    # Uncovered where the background's source in this frame moves otherwise.
-    there = _sample(field, xs + d[:, 0], ys + d[:, 1])
-    hidden = np.abs(((there - d) * along).sum(axis=1)) > SETTLED
-    ys, xs, d, qy, qx = ys[hidden], xs[hidden], d[hidden], qy[hidden], qx[hidden]
-    late = ys + d[:, 1] >= reference_row  # its row, read after the reference
-    k = np.full(ys.size, -1)
-    delta = np.zeros((ys.size, 2), np.float32)
-    for i, offset in enumerate(offsets):
-        mine = np.flatnonzero(late if offset < 0 else ~late)
-        if not mine.size:
-            continue
-        n = d[mine] + _sample(flows[i], mx[qy[mine], qx[mine]], my[qy[mine], qx[mine]])
-        nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
-        ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
-        k[mine[ok]] = i
-        delta[mine[ok]] = n[ok]
-    found = k >= 0
-    if not found.any():
-        return None
-    return ys[found], xs[found], k[found], delta[found], qy[found], qx[found]
-
-
-def uncovered_sources(found: tuple[np.ndarray, ...], grid: tuple[int, int],
-                      plane: tuple[int, int]) -> list:
-    """Parts (as :func:`neighbour_sources`) of a plane for the pixels :func:`uncovered` found.
-
-    Each pixel of the maps' ``grid`` stands for the plane's pixels nearest it, all read
-    from its neighbour with its displacement (scaled to the plane).
-    """
-    ys, xs, k, delta = found[:4]
-    (h, w), (ph, pw) = grid, plane
-    sx, sy = pw / w, ph / h
-    # The plane's pixels whose nearest grid pixel is (y, x): a block of at most by x bx.
-    by, bx = int(np.ceil(sy)) + 1, int(np.ceil(sx)) + 1
-    oy, ox = np.mgrid[0:by, 0:bx]
-    py = np.floor(ys * sy - 0.5).astype(int)[:, None] + oy.ravel()
-    px = np.floor(xs * sx - 0.5).astype(int)[:, None] + ox.ravel()
-    near_y = np.floor((py + 0.5) / sy).astype(int)
-    near_x = np.floor((px + 0.5) / sx).astype(int)
-    mine = ((near_y == ys[:, None]) & (near_x == xs[:, None]) & (py >= 0) & (py < ph)
-            & (px >= 0) & (px < pw))
-    idx = np.broadcast_to(np.arange(ys.size)[:, None], mine.shape)[mine]
-    py, px = py[mine], px[mine]
-    nx = px + delta[idx, 0] * sx
-    ny = py + delta[idx, 1] * sy
-    parts = []
-    for i in np.unique(k):
-        sel = k[idx] == i
-        parts.append((int(i), py[sel], px[sel], nx[sel], ny[sel]))
-    return parts
-
-
-def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list[np.ndarray]
-              ) -> tuple | None:
-    """Keep the uncovered pixels whose neighbour's sample looks like their background.
-
-    Checked on a plane at each pixel's centre: the neighbour's sample must be nearer in
-    value to the background beside it (the output at the pixel whose displacement it
-    took and the next two on from it, away from the pixel) than the output there is now
-    (the near object stretched over it). A wrong displacement (a field that does not
-    settle where no object is) would otherwise bring in whatever the neighbour shows
-    there. What is left must come in groups of at least :data:`GROUP` pixels of the
-    grid: an object's edge is uncovered along its length, and single pixels drawn from
-    elsewhere show as specks.
-    """
-    ys, xs, k, delta, qy, qx = found
-    (h, w), (ph, pw) = grid, out.shape[:2]
-    sx, sy = pw / w, ph / h
-
-    def at(gy: np.ndarray, gx: np.ndarray) -> np.ndarray:
-        py = np.clip(np.rint((gy + 0.5) * sy - 0.5), 0, ph - 1).astype(int)
-        px = np.clip(np.rint((gx + 0.5) * sx - 0.5), 0, pw - 1).astype(int)
-        return out[py, px].astype(np.float32).reshape(gy.size, -1)
-
-    now = at(ys, xs)
-    uy, ux = np.sign(qy - ys), np.sign(qx - xs)  # on from the donor, away from the pixel
-    back = sum(at(qy + j * uy, qx + j * ux) for j in range(3)) / 3.0
-    seen = np.empty_like(now)
-    for i in np.unique(k):
-        sel = k == i
-        px = np.clip(np.rint((xs[sel] + 0.5) * sx - 0.5), 0, pw - 1)
-        py = np.clip(np.rint((ys[sel] + 0.5) * sy - 0.5), 0, ph - 1)
-        seen[sel] = _sample(planes[i], px + delta[sel, 0] * sx, py + delta[sel, 1] * sy
-                            ).astype(np.float32).reshape(sel.sum(), -1)
-    keep = np.abs(seen - back).sum(axis=1) < np.abs(now - back).sum(axis=1)
-    mask = np.zeros(grid, np.uint8)
-    mask[ys[keep], xs[keep]] = 1
-    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    keep &= stats[labels[ys, xs], cv2.CC_STAT_AREA] >= GROUP
-    if not keep.any():
-        return None
-    return tuple(a[keep] for a in found)
 
 
 def outside_share(maps: tuple[np.ndarray, np.ndarray], step: int = 8) -> float:
@@ -369,56 +167,3 @@ def outside_share(maps: tuple[np.ndarray, np.ndarray], step: int = 8) -> float:
 def unseen_share(parts: list, shape: tuple[int, int]) -> float:
     """Return the share of a plane of ``shape`` that no frame saw, from its ``parts``."""
     return sum(p[1].size for p in parts if p[0] < 0) / float(shape[0] * shape[1])
-
-
-class NeighbourFill:
-    """One picture's planes, warped, given what they did not see from the neighbours'.
-
-    Parameters
-    ----------
-    maps : tuple of ndarray
-        The frame's backward maps on its field's grid (coarse).
-    neighbours : list of (planes, flow)
-        Each neighbour's picture (top-bottom planes, the first plane's size first) and
-        this frame's flow to it, with its offset in ``offsets``.
-    offsets : list of int
-        -1: the previous frame, 1: the next.
-    timing : SensorTiming
-        For the reference scanline.
-    field : ndarray, optional
-        The forward displacement the maps invert, in their grid's pixels: given, the
-        background a nearer object uncovered is looked for too (:func:`uncovered`).
-    coarse : bool
-        Whether the full-resolution test may be limited by ``maps`` (no lens composed).
-    """
-
-    def __init__(self, maps: tuple[np.ndarray, np.ndarray],
-                 neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
-                 timing: SensorTiming, field: np.ndarray | None = None,
-                 coarse: bool = True) -> None:
-        self.maps, self.offsets, self.timing, self.coarse = maps, offsets, timing, coarse
-        self.planes = [planes for planes, _ in neighbours]
-        self.flows = [flow for _, flow in neighbours]
-        grid = maps[0].shape
-        self.behind = (uncovered(maps, field, self.flows, offsets, timing.reference_row(grid[0]))
-                       if field is not None else None)
-        self._parts: dict[tuple[int, int], list] = {}
-        #: Of the first plane, the share whose source lies beyond the edge that no neighbour saw.
-        self.unseen = 0.0
-
-    def __call__(self, i: int, out: np.ndarray, sized: tuple[np.ndarray, np.ndarray]
-                 ) -> np.ndarray:
-        """Fill plane ``i`` (warped, top-bottom, its maps ``sized``) in place; return it."""
-        ph, pw = out.shape[:2]
-        grid = self.maps[0].shape
-        if i == 0 and self.behind is not None:
-            self.behind = confirmed(self.behind, grid, out, [p[0] for p in self.planes])
-        if (ph, pw) not in self._parts:
-            self._parts[(ph, pw)] = neighbour_sources(
-                sized, self.flows, self.maps if self.coarse else None, self.offsets,
-                self.timing.reference_row(ph))
-            if self.behind is not None:
-                self._parts[(ph, pw)] += uncovered_sources(self.behind, grid, (ph, pw))
-        if i == 0:
-            self.unseen = unseen_share(self._parts[(ph, pw)], (ph, pw))
-        return fill_from_neighbours(out, self._parts[(ph, pw)], [p[i] for p in self.planes])

@@ -28,7 +28,8 @@ import cv2
 import numpy as np
 
 from .lens import Lens
-from .neighbours import NeighbourFill, outside_share
+from .neighbour_fill import NeighbourFill
+from .neighbours import outside_share
 from .scanlines import row_sources, shift_planes
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
@@ -511,7 +512,7 @@ class PictureWarper:
                     [k for k, _, _ in have], self.timing,
                     grid_field(motion.field, maps[0].shape, (h, w))
                     if plain and motion.field is not None else None,
-                    coarse=self.undistort is None)
+                    coarse=self.undistort is None, own=[to_top_bottom(p, d) for p in planes])
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)

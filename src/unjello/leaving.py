@@ -1,0 +1,319 @@
+"""Nearer objects leaving the frame at a side, carried beyond its edge by their own motion.
+
+A pole a pan passes leaves the frame at a side: the rows read after it left never saw it,
+and the strip beyond the edge, taken from a neighbour along the background's motion
+(:func:`unjello.neighbours.neighbour_sources`), ends it there. :func:`edge_objects` finds
+such objects in the per-pixel field where they touch a side, :func:`settled_objects`
+keeps those a neighbour shows where their velocity carries them, and
+:func:`objects_beyond` takes the pixels they cover beyond the edge from that neighbour.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .neighbours import INSET, sample_points
+from .uncovered import UNIFORM
+
+__all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
+           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE"]
+
+#: Rows of the field within this share of the readout of the reference scanline do not
+#: measure an object's velocity (its displacement there is near zero whatever it is).
+NEAR_REFERENCE = 0.1
+#: An object at the side moves faster than its row's background by this share of the
+#: background's speed at least (and by 2 px of the grid a frame): nearer, in a pan.
+FASTER = 0.1
+#: Fewest rows (of the grid) an object touches the side over, gaps of two rows bridged.
+RUN = 8
+#: Columns (of the grid) from the side in which an object's velocity is measured.
+BAND = 8
+#: Farthest (grid pixels a frame interval, along x) an object's velocity is moved to match
+#: what its neighbours show (:func:`settled_objects`).
+SEARCH = 12.0
+#: Least share of an object's core pixels a neighbour must show where they are carried.
+HELD = 0.8
+#: Largest grey-level difference between an object's visible pixel and what a neighbour
+#: shows where the object's own motion carries a pixel beyond the edge.
+ALIKE = 10.0
+
+
+@dataclass(frozen=True)
+class EdgeObject:
+    """A nearer object touching a side of the frame, moving as one (:func:`edge_objects`).
+
+    ``side``: -1 the left, 1 the right; ``rows`` and ``cols``: the grid pixels near the
+    side whose field is its core (rows ascending); ``velocity``: its image velocity (grid
+    pixels a frame interval, x and y); ``behind``: its background's.
+    """
+
+    side: int
+    rows: np.ndarray
+    cols: np.ndarray
+    velocity: tuple[float, float]
+    behind: tuple[float, float]
+
+
+def edge_objects(field: np.ndarray, readout: float, reference_row: float
+                 ) -> list[EdgeObject]:
+    """Nearer objects touching the frame's left and right sides, from the per-pixel field.
+
+    A pole a pan passes leaves the frame at a side: in the rows read after it left, the
+    frame never saw it, and the strip beyond the edge is taken from a neighbour along the
+    background's motion -- the pole ends there. Where it touches the side its field is
+    its own (a rigid fit where the flow could not follow it): ``D(y) = v tau(y)`` with
+    ``tau`` the time from the reference to row ``y`` (eq. 26 for a constant velocity
+    ``v``). Runs of rows (:data:`RUN`) whose field a few pixels in (:data:`INSET`) gives
+    a velocity :data:`FASTER` than the row's background (its median) along the
+    background's motion are such objects, with the median velocity of the run's core. Rows
+    near the reference (:data:`NEAR_REFERENCE`) measure nothing, and rows that do not
+    move as one (:data:`UNIFORM`) are left alone.
+
+    Parameters
+    ----------
+    field : ndarray of shape (h, w, 2)
+        Forward displacement ``p = s - field(s)`` in grid pixels.
+    readout : float
+        Share of the frame interval the scan takes.
+    reference_row : float
+        The reference scanline (grid rows, top-bottom).
+    """
+    h, w = field.shape[:2]
+    tau = (np.arange(h) - reference_row) * (readout / h)
+    far = np.flatnonzero(np.abs(tau) >= NEAR_REFERENCE * readout)
+    if far.size < RUN or w <= 2 * INSET + 2:
+        return []
+    sides = ((-1, int(INSET)), (1, w - 1 - int(INSET)))
+    edges = [field[far, col] / tau[far, None] for _, col in sides]
+    # Most frames have nothing faster than the background at either side: a look with
+    # each row's mean first (a narrow object moves it little), its median where needed.
+    mean = cv2.resize(np.ascontiguousarray(field, np.float32), (1, h),
+                      interpolation=cv2.INTER_AREA).reshape(h, 2)[far] / tau[far, None]
+    rough = np.hypot(*mean.T)
+    if all(np.count_nonzero((e * mean).sum(axis=1) / np.maximum(rough, 1e-6) - rough
+                            > np.maximum(FASTER * rough, 2.0) / 2) < RUN for e in edges):
+        return []
+    every = field[far, ::8]  # a row's background: every 8th pixel is plenty
+    back = np.median(every, axis=1) / tau[far, None]
+    speed = np.hypot(*back.T)
+    least = np.maximum(FASTER * speed, 2.0)
+    whole = np.median(back, axis=0)
+    out = []
+    for (side, col), edge in zip(sides, edges, strict=True):
+        rows = np.flatnonzero((edge * back).sum(axis=1) / np.maximum(speed, 1e-6) - speed
+                              > least)
+        if rows.size < RUN:
+            continue
+        # Rows that move as one (:data:`UNIFORM`): where the background moves unevenly
+        # (forward motion, depth), faster is no sign of an object.
+        spread = np.median(np.hypot(*(every[rows] / tau[far[rows], None, None]
+                                      - back[rows, None]).transpose(2, 0, 1)), axis=1)
+        rows = rows[spread <= UNIFORM * speed[rows]]
+        band = slice(col, col + BAND) if side < 0 else slice(col - BAND + 1, col + 1)
+        for run in np.split(rows, np.flatnonzero(np.diff(rows) > 3) + 1):
+            if run.size < RUN:
+                continue
+            lo, hi = run[0], run[-1] + 1
+            vel = field[far[lo:hi], band] / tau[far[lo:hi], None, None]
+            faster = ((vel * back[lo:hi, None]).sum(axis=2)
+                      / np.maximum(speed[lo:hi], 1e-6)[:, None]
+                      - speed[lo:hi, None] > least[lo:hi, None])
+            # Its field blends into the background's at its outline: the core's.
+            ry, rx = np.nonzero(faster)
+            mine = vel[ry, rx]
+            fast = (mine * back[lo:hi].mean(axis=0)).sum(axis=1)
+            core = fast >= np.percentile(fast, 75)
+            v = np.median(mine[core], axis=0)
+            b = np.median(back[lo:hi], axis=0)
+            if (np.unique(ry[core]).size < RUN // 2
+                    or np.hypot(*(b - whole)) > UNIFORM * np.hypot(*whole)):
+                continue  # a core a few rows high, or a background unlike the frame's
+            out.append(EdgeObject(side, far[lo:hi][ry[core]], np.arange(w)[band][rx[core]],
+                                  (float(v[0]), float(v[1])), (float(b[0]), float(b[1]))))
+    return out
+
+
+def _middle(values: list[float], step: float) -> float:
+    """Return the middle of the run of ``values`` (``step`` apart, ascending) nearest zero."""
+    v = np.asarray(values)
+    runs = np.split(v, np.flatnonzero(np.diff(v) > step * 1.5) + 1)
+    return float(np.median(min(runs, key=lambda r: float(np.abs(r).min()))))
+
+
+def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.ndarray],
+                    steps: list[float], grid: tuple[int, int]) -> list[EdgeObject]:
+    """Keep the objects a neighbour shows where their velocity carries them, refined.
+
+    An object's field near the side, blended with its background's at its outline, gives
+    a velocity a few pixels off, and then a thin pole carried beyond the edge lands beside
+    itself. Its core pixels (of this frame's first plane, ``own``) are carried into each
+    neighbour (first planes, ``planes``) at the velocity plus offsets of up to
+    :data:`SEARCH` grid pixels along x; the share of them within :data:`ALIKE` grey levels
+    of what the neighbour shows there is scored, and the middle of the best offsets kept.
+    An object whose best share (in the neighbour where most land inside) is under
+    :data:`HELD` is dropped: its velocity is not the one the pictures show; so is one that
+    its background's velocity carries onto alike pixels nearly as often (by less than half
+    of :data:`HELD`): a flat region matches anywhere.
+    """
+    gh, gw = grid
+    ph, pw = own.shape[:2]
+    sx, sy = pw / gw, ph / gh
+    kept = []
+    for obj in objects:
+        seen = sample_points(own, (obj.cols + 0.5) * sx - 0.5, (obj.rows + 0.5) * sy - 0.5
+                       ).astype(np.float32).reshape(obj.rows.size, -1)
+
+        def share(plane: np.ndarray, v: tuple[float, float], dt: float,
+                  seen: np.ndarray = seen, obj: EdgeObject = obj) -> tuple[int, float]:
+            """Return how many core pixels ``v`` carries inside, and the share alike."""
+            lx = obj.cols + v[0] * dt
+            inside = (lx >= -0.5) & (lx <= gw - 0.5)
+            n = int(inside.sum())
+            if n < RUN:
+                return 0, 0.0
+            ly = (obj.rows[inside] + v[1] * dt).clip(0, gh - 1)
+            there = sample_points(plane, (lx[inside] + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5
+                            ).astype(np.float32).reshape(n, -1)
+            return n, float((np.abs(there - seen[inside]).max(axis=1) <= ALIKE).mean())
+
+        best: tuple[int, float, float, float] = (0, 0.0, 0.0, 1.0)  # landed, share, dx, bg's
+        for plane, dt in zip(planes, steps, strict=True):
+            tried = [(d, *share(plane, (obj.velocity[0] + d, obj.velocity[1]), dt))
+                     for d in np.arange(-SEARCH, SEARCH + 0.25, 0.5)]
+            landed = max(n for _, n, _ in tried)
+            top = max(a for _, _, a in tried)
+            if landed >= RUN and (landed, top) > best[:2]:
+                dx = _middle([d for d, _, a in tried if a >= top - 1e-6], 0.5)
+                best = (landed, top, dx, share(plane, obj.behind, dt)[1])
+        # Held where carried, and not where the background's motion would carry it too
+        # (a flat sky matches anywhere).
+        if best[1] >= HELD and best[1] - best[3] >= HELD / 2:
+            kept.append(dataclasses.replace(
+                obj, velocity=(obj.velocity[0] + best[2], obj.velocity[1])))
+    return kept
+
+
+def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int],
+                   readout: float, reference_row: float, steps: list[float],
+                   offsets: list[int], own: np.ndarray | None, planes: list[np.ndarray],
+                   decided: np.ndarray | None = None) -> tuple[list, np.ndarray | None]:
+    """Re-target the strip's pixels that an object leaving the frame covers.
+
+    Output pixel ``p`` shows the object if its source under the object's own motion,
+    ``s = p + v tau(s_y)`` (:func:`edge_objects`), lies beyond the side the object
+    touches, and a neighbour, read at ``s + v dt``, shows there what this frame shows
+    of the object where it touches the side (within :data:`ALIKE` grey levels, on the
+    first plane): the object is nearer, so it covers the background there. Rows read
+    after the reference try the previous frame first (the object, moving out, was
+    further in), others the next. Where the check fails the pixel keeps its part; an object
+    that takes fewer pixels than a band two grid pixels wide and :data:`RUN` rows high
+    takes none (a speck at the edge, not an object's continuation).
+
+    Parameters
+    ----------
+    parts : list
+        :func:`neighbour_sources` of one plane.
+    objects : list of EdgeObject
+    grid : tuple of int
+        The field's grid (h, w).
+    readout, reference_row : float
+        The timing (``reference_row`` in grid rows).
+    steps : list of float
+        Per neighbour, its time less this frame's (frame intervals).
+    offsets : list of int
+        Per neighbour, -1 (previous) or 1 (next).
+    own : ndarray, optional
+        This frame's first plane (top-bottom) when ``parts`` are the first plane's.
+    planes : list of ndarray
+        The neighbours' planes of this size.
+    decided : ndarray, optional
+        For a plane other than the first: the first plane's decisions (returned when it
+        was done), read at the nearest of its pixels.
+
+    Returns
+    -------
+    parts : list
+        The parts, with the object's pixels moved to the neighbour that shows it.
+    decided : ndarray of int8 or None
+        On the first plane: per pixel, 1 + the neighbour that showed the object, 0 where
+        none; None where no pixel changed.
+    """
+    if not objects:
+        return parts, decided
+    ph, pw = planes[0].shape[:2]
+    gh, gw = grid
+    sx, sy = pw / gw, ph / gh
+    k = readout / gh
+    # Besides the strip, the pixels whose source the background's motion keeps inside but
+    # an object's (nearer: faster) carries beyond the side (-2: as warped, unless taken).
+    wider = np.zeros((ph, pw), bool)
+    cols = np.arange(pw)
+    s_rows = ((np.arange(ph) + 0.5) / sy - 0.5)[:, None]
+    for obj in objects:
+        vx, vy = obj.velocity
+        reach = vx * ((s_rows - vy * reference_row * k) / (1.0 - vy * k) - reference_row) * k
+        edge = ((gw - 0.5 if obj.side > 0 else -0.5) - reach + 0.5) * sx - 0.5
+        wider |= cols >= edge if obj.side > 0 else cols <= edge
+    for p in parts:
+        wider[p[1], p[2]] = False
+    wy, wx = np.nonzero(wider)
+    parts = [*parts, (-2, wy, wx, wx.astype(np.float32), wy.astype(np.float32))]
+    ys, xs, nx, ny = (np.concatenate([p[i] for p in parts]) for i in range(1, 5))
+    ks = np.concatenate([np.full(p[1].size, p[0]) for p in parts])
+    gx, gy = (xs + 0.5) / sx - 0.5, (ys + 0.5) / sy - 0.5
+    first = decided is None
+    if first:
+        assert own is not None
+        decided = np.zeros((ph, pw), np.int8)
+    else:
+        dh, dw = decided.shape
+        at = decided[np.clip(((ys + 0.5) * dh / ph).astype(int), 0, dh - 1),
+                     np.clip(((xs + 0.5) * dw / pw).astype(int), 0, dw - 1)]
+    free = np.ones(ys.size, bool)
+    least = 2 * RUN * sx * sy  # plane pixels: a band two grid pixels wide, RUN rows high
+    for obj in objects:
+        vx, vy = obj.velocity
+        s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
+        s_x = gx + vx * (s_y - reference_row) * k
+        open_ = free & ((s_x > gw - 0.5) if obj.side > 0 else (s_x < -0.5))
+        late = s_y >= reference_row
+        taken = []
+        for rank in (0, 1):  # each pixel's preferred neighbour first, then the other
+            for i, offset in enumerate(offsets):
+                wants = late if offset < 0 else ~late
+                # (an upright object's vertical motion is unsure: held inside the frame)
+                lx, ly = s_x + vx * steps[i], (s_y + vy * steps[i]).clip(0, gh - 1)
+                idx = np.flatnonzero(open_ & (wants if rank == 0 else ~wants)
+                                     & (lx >= -0.5) & (lx <= gw - 0.5))
+                if not idx.size:
+                    continue
+                qx, qy = (lx[idx] + 0.5) * sx - 0.5, (ly[idx] + 0.5) * sy - 0.5
+                if first:  # the object as this frame saw it, at its core's nearest row
+                    j = np.searchsorted(obj.rows, s_y[idx]).clip(0, obj.rows.size - 1)
+                    j = np.where(np.abs(obj.rows[np.maximum(j - 1, 0)] - s_y[idx])
+                                 < np.abs(obj.rows[j] - s_y[idx]), np.maximum(j - 1, 0), j)
+                    seen = sample_points(own, (obj.cols[j] + 0.5) * sx - 0.5,
+                                         (obj.rows[j] + 0.5) * sy - 0.5)
+                    there = sample_points(planes[i], qx, qy)
+                    alike = (np.abs(there.astype(np.float32) - seen.astype(np.float32))
+                             .reshape(idx.size, -1).max(axis=1) <= ALIKE)
+                else:
+                    alike = at[idx] == i + 1
+                taken.append((idx[alike], i, qx[alike], qy[alike]))
+                open_[idx[alike]] = False
+        if first and sum(t[0].size for t in taken) < least:
+            continue  # a few pixels: no object's continuation, a speck
+        for idx, i, qx, qy in taken:
+            ks[idx], nx[idx], ny[idx] = i, qx, qy
+            free[idx] = False
+            if first:
+                decided[ys[idx], xs[idx]] = i + 1
+    if free.all():
+        return parts[:-1], (None if first else decided)
+    out = [(int(i), ys[ks == i], xs[ks == i], nx[ks == i], ny[ks == i])
+           for i in np.unique(ks) if i > -2]
+    return out, decided

@@ -1,0 +1,82 @@
+"""One picture's planes, warped, given what they did not see from the neighbours'."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .leaving import edge_objects, objects_beyond, settled_objects
+from .neighbours import fill_from_neighbours, neighbour_sources, unseen_share
+from .timing import SensorTiming
+from .uncovered import confirmed, uncovered, uncovered_sources
+
+__all__ = ["NeighbourFill"]
+
+
+class NeighbourFill:
+    """One picture's planes, warped, given what they did not see from the neighbours'.
+
+    Parameters
+    ----------
+    maps : tuple of ndarray
+        The frame's backward maps on its field's grid (coarse).
+    neighbours : list of (planes, flow)
+        Each neighbour's picture (top-bottom planes, the first plane's size first) and
+        this frame's flow to it, with its offset in ``offsets``.
+    offsets : list of int
+        -1: the previous frame, 1: the next.
+    timing : SensorTiming
+        For the reference scanline.
+    field : ndarray, optional
+        The forward displacement the maps invert, in their grid's pixels: given, the
+        background a nearer object uncovered is looked for too (:func:`uncovered`).
+    coarse : bool
+        Whether the full-resolution test may be limited by ``maps`` (no lens composed).
+    own : list of ndarray, optional
+        This frame's planes (top-bottom): given with ``field``, nearer objects leaving
+        the frame at a side are carried beyond it by their own motion
+        (:func:`objects_beyond`).
+    """
+
+    def __init__(self, maps: tuple[np.ndarray, np.ndarray],
+                 neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
+                 timing: SensorTiming, field: np.ndarray | None = None,
+                 coarse: bool = True, own: list[np.ndarray] | None = None) -> None:
+        self.maps, self.offsets, self.timing, self.coarse = maps, offsets, timing, coarse
+        self.planes = [planes for planes, _ in neighbours]
+        self.flows = [flow for _, flow in neighbours]
+        grid = maps[0].shape
+        self.behind = (uncovered(maps, field, self.flows, offsets, timing.reference_row(grid[0]))
+                       if field is not None else None)
+        self._parts: dict[tuple[int, int], list] = {}
+        self.own = own
+        self.objects = (settled_objects(
+            edge_objects(field, timing.readout, timing.reference_row(grid[0])), own[0],
+            [p[0] for p in self.planes], [float(o) for o in offsets], grid)
+            if field is not None and own is not None else [])
+        self._decided: np.ndarray | None = None  # the first plane's pixels taken by objects
+        #: Of the first plane, the share whose source lies beyond the edge that no neighbour saw.
+        self.unseen = 0.0
+
+    def __call__(self, i: int, out: np.ndarray, sized: tuple[np.ndarray, np.ndarray]
+                 ) -> np.ndarray:
+        """Fill plane ``i`` (warped, top-bottom, its maps ``sized``) in place; return it."""
+        ph, pw = out.shape[:2]
+        grid = self.maps[0].shape
+        if i == 0 and self.behind is not None:
+            self.behind = confirmed(self.behind, grid, out, [p[0] for p in self.planes])
+        if (ph, pw) not in self._parts:
+            parts = neighbour_sources(sized, self.flows, self.maps if self.coarse else None,
+                                      self.offsets, self.timing.reference_row(ph))
+            if self.objects and (i == 0 or self._decided is not None):
+                assert self.own is not None
+                parts, self._decided = objects_beyond(
+                    parts, self.objects, grid, self.timing.readout,
+                    self.timing.reference_row(grid[0]), [float(o) for o in self.offsets],
+                    self.offsets, self.own[0] if i == 0 else None,
+                    [p[i] for p in self.planes], None if i == 0 else self._decided)
+            self._parts[(ph, pw)] = parts
+            if self.behind is not None:
+                self._parts[(ph, pw)] += uncovered_sources(self.behind, grid, (ph, pw))
+        if i == 0:
+            self.unseen = unseen_share(self._parts[(ph, pw)], (ph, pw))
+        return fill_from_neighbours(out, self._parts[(ph, pw)], [p[i] for p in self.planes])

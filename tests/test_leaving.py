@@ -1,0 +1,106 @@
+"""Nearer objects leaving the frame at a side, carried beyond its edge by their own motion."""
+
+import cv2
+import numpy as np
+
+from unjello.leaving import EdgeObject, edge_objects, settled_objects
+from unjello.timing import SensorTiming
+from unjello.trajectory import FrameMotion
+from unjello.warp import PictureWarper
+
+H, W = 120, 80
+REF = (H - 1) / 2  # readout 1, the middle row
+BACK, NEAR = 20.0, 30.0  # px a frame: the background, and a pole nearer (1.5x)
+POLE = (70.0, 74.0)  # the pole's columns at the reference time
+
+
+def _tau(y: np.ndarray) -> np.ndarray:
+    return (y - REF) / H
+
+
+def _pan(pole: bool = True) -> dict:
+    """A pan over a texture with a flat pole leaving the frame at the right, rolling shutter.
+
+    Content at ``p`` (reference time) is at ``p + v (t - t_ref)`` at time ``t``; row ``y``
+    of this frame is read at ``tau(y)``, of the previous at ``tau(y) - 1``. The pole (250)
+    leaves the frame in the rows read after ``tau = 0.33`` (row 99): the frame never saw
+    it there, the previous frame did, 30 px further left.
+    """
+    rng = np.random.default_rng(5)
+    tex = rng.uniform(40, 160, (H, W + 200)).astype(np.float32)
+    tex = (tex + np.roll(tex, 1, 1) + np.roll(tex, 1, 0)) / 3  # (a little smoother)
+
+    def scene(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return tex[y, np.clip(np.rint(x).astype(int) + 100, 0, W + 199)]
+
+    y, x = np.mgrid[0:H, 0:W].astype(np.float32)
+    t = _tau(y)
+    out = {}
+    for name, dt in (("frame", 0.0), ("prev", -1.0)):
+        img = scene(x - BACK * (t + dt), y.astype(int))
+        at = x - NEAR * (t + dt)  # the pole's reference position seen at (x, y)
+        if pole:
+            img[(at >= POLE[0]) & (at <= POLE[1])] = 250.0
+        out[name] = img
+    field = np.zeros((H, W, 2), np.float32)
+    field[..., 0] = BACK * t
+    if pole:
+        at = x - NEAR * t
+        on = (at >= POLE[0]) & (at <= POLE[1])
+        field[..., 0][on] = (NEAR * t)[on]
+    out["field"] = field
+    # This frame's flow to the previous: the background's everywhere (the flow lost the
+    # flat pole, as DIS does; only the field, from the rigid fit, knows its motion).
+    flow = np.zeros((H, W, 2), np.float32)
+    flow[..., 0] = -BACK
+    out["flow"] = flow
+    return out
+
+
+def test_edge_objects_find_the_pole_touching_the_side_and_its_velocity():
+    objs = edge_objects(_pan()["field"], 1.0, REF)
+    assert len(objs) == 1
+    obj = objs[0]
+    assert obj.side == 1
+    assert abs(obj.velocity[0] - NEAR) < 0.5 and abs(obj.velocity[1]) < 0.1
+    assert abs(obj.behind[0] - BACK) < 0.5
+    assert obj.rows.min() >= 71 and obj.rows.max() <= 84  # where it crosses column 76
+    # A plain pan has none; nor does a background that does not move as one.
+    assert edge_objects(_pan(pole=False)["field"], 1.0, REF) == []
+    uneven = _pan()["field"]
+    uneven[..., 0] *= np.linspace(0.5, 1.5, W)[None, :]
+    assert edge_objects(uneven, 1.0, REF) == []
+
+
+def test_settled_objects_correct_the_velocity_and_drop_what_a_flat_scene_matches():
+    pan = _pan()
+    obj = edge_objects(pan["field"], 1.0, REF)[0]
+    off = EdgeObject(obj.side, obj.rows, obj.cols, (NEAR - 5.0, 0.0), obj.behind)
+    kept, = settled_objects([off], pan["frame"], [pan["prev"]], [-1.0], (H, W))
+    assert abs(kept.velocity[0] - NEAR) <= 2.0  # the pole's 5 columns: within its width
+    flat = np.full((H, W), 250.0, np.float32)
+    assert settled_objects([obj], flat, [flat], [-1.0], (H, W)) == []
+
+
+def test_the_warper_carries_the_pole_beyond_the_edge_from_the_previous_frame():
+    pan = _pan()
+    d = np.zeros((H, 2))
+    chroma = [cv2.resize(pan[k], (W // 2, H // 2), interpolation=cv2.INTER_AREA)
+              for k in ("frame", "prev")]
+    motion = FrameMotion(0, 0.0, d, np.zeros((H, 2)), field=pan["field"],
+                         neighbours=((-1, pan["flow"]),))
+    warper = PictureWarper(SensorTiming(1.0))
+    out, u = warper([pan["frame"], chroma[0]], motion, {-1: [pan["prev"], chroma[1]]})
+    rows = slice(100, H - 2)  # read after the pole left the frame
+    # Its middle, and 3 of its 5 columns in every row (where the previous frame's sample
+    # blends the pole's edge with the background, it is not taken as the pole).
+    assert np.all(out[rows, 72] == 250.0)
+    assert np.all((out[rows, 69:76] == 250.0).sum(axis=1) >= 3)
+    # The chroma plane follows (the texture is 40-160: only the pole is brighter).
+    assert np.all(u[50:59, 34:38].max(axis=1) > 180.0)
+    # Beside it, the background the previous frame saw (as without the pole's motion).
+    plain = PictureWarper(SensorTiming(1.0))([pan["frame"]], FrameMotion(
+        0, 0.0, d, np.zeros((H, 2)), field=_pan(pole=False)["field"],
+        neighbours=((-1, pan["flow"]),)), {-1: [_pan(pole=False)["prev"]]})[0]
+    right = slice(int(POLE[1]) + 2, W)
+    assert np.abs(out[rows, right] - plain[rows, right]).mean() < 1.0

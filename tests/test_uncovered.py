@@ -1,0 +1,99 @@
+"""Background a near object uncovered, taken from the neighbour that saw it."""
+
+import numpy as np
+import pytest
+
+from unjello.timing import SensorTiming
+from unjello.trajectory import FrameMotion
+from unjello.uncovered import confirmed, uncovered, uncovered_sources
+from unjello.warp import PictureWarper, field_maps
+
+H, W = 24, 64
+POLE = slice(30, 36)  # the near object's columns in this frame
+
+
+def _layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A pan (background displaced 3 px) behind a flat pole displaced -1 px (parallax).
+
+    Output pixel ``p`` takes source ``p + D``: the background's ``D = 3``, so the pole
+    (sources 30-35) lands on 31-36, and output 27-30 shows background whose source (30-33)
+    the pole covers in this frame. The previous frame saw it 5 px further right.
+    Returns the reference picture, this frame, the previous frame and the field.
+    """
+    rng = np.random.default_rng(3)
+    scene = rng.uniform(40, 160, (H, W + 20)).astype(np.float32)
+    ref = scene[:, :W].copy()  # the background at the reference time
+    frame = np.empty((H, W), np.float32)
+    frame[:, 3:] = ref[:, :W - 3]  # I(s) = ref(s - 3)
+    frame[:, :3] = scene[:, W:W + 3]
+    frame[:, POLE] = 250.0
+    prev = np.empty((H, W), np.float32)
+    prev[:, 8:] = ref[:, :W - 8]  # prev(x) = ref(x - 8): this frame's flow to it is +5
+    prev[:, :8] = scene[:, W + 3:W + 11]
+    field = np.zeros((H, W, 2), np.float32)
+    field[..., 0] = 3.0  # p = s - field(s): the background's source 3 px right
+    field[:, POLE, 0] = -1.0  # the pole's 1 px left
+    return ref, frame, prev, field
+
+
+def test_uncovered_finds_what_the_pole_covered_and_where_the_neighbour_saw_it():
+    _, _, _, field = _layers()
+    maps = field_maps(field)
+    flow = np.zeros((H, W, 2), np.float32)
+    flow[..., 0] = 5.0
+    found = uncovered(maps, field, [flow], [-1], reference_row=0.0)
+    assert found is not None
+    ys, xs, k, delta = found[:4]
+    cols = set(xs.tolist())
+    assert {28, 29} <= cols <= set(range(26, 32))  # output 27-30, a pixel of blur either side
+    assert np.all(k == 0)
+    assert np.allclose(delta, [8.0, 0.0], atol=0.05)  # background's 3 px and the flow's 5
+    # No neighbour for the rows read before the reference (the next frame saw them):
+    assert uncovered(maps, field, [flow], [-1], reference_row=float(H)) is None
+    # Without parallax nothing is uncovered.
+    flat = np.full((H, W, 2), 3.0, np.float32)
+    flat[..., 1] = 0.0
+    assert uncovered(field_maps(flat), flat, [flow], [-1], 0.0) is None
+
+
+def test_the_warper_takes_the_uncovered_background_from_the_previous_frame():
+    ref, frame, prev, field = _layers()
+    flow = np.zeros((H, W, 2), np.float32)
+    flow[..., 0] = 5.0
+    d = np.zeros((H, 2))
+    motion = FrameMotion(0, 0.0, d, np.zeros((H, 2)), field=field, neighbours=((-1, flow),))
+    warper = PictureWarper(SensorTiming(0.5, reference="first"))
+    out = warper([frame], motion, {-1: [prev]})[0]
+    alone = warper([frame], motion)[0]  # no neighbour: the pole stretched over it
+    gap = (slice(2, H - 2), slice(27, 30))
+    assert np.abs(alone[gap] - ref[gap]).mean() > 40
+    assert np.abs(out[gap] - ref[gap]).mean() < 2
+    # The pole and the background elsewhere as before.
+    rest = np.ones(W, bool)
+    rest[26:31] = False
+    assert np.array_equal(out[:, rest], alone[:, rest])
+
+
+def test_uncovered_sources_cover_each_grid_pixels_block_of_the_plane():
+    found = (np.array([1]), np.array([2]), np.array([0]), np.array([[1.5, -0.5]], np.float32))
+    (k, ys, xs, nx, ny), = uncovered_sources(found, (4, 5), (8, 10))
+    assert sorted(zip(ys.tolist(), xs.tolist(), strict=True)) == [(2, 4), (2, 5), (3, 4), (3, 5)]
+    assert k == 0
+    assert np.allclose(nx - xs, 3.0) and np.allclose(ny - ys, -1.0)
+
+
+@pytest.mark.parametrize(("seen", "kept"), [(100.0, 8), (250.0, 0)])
+def test_a_fill_is_kept_only_where_it_looks_like_the_background(seen, kept):
+    # Output 250 (the pole stretched) on a 4 x 2 band, background 100 beside it; the
+    # neighbour shows `seen` where the uncovered points lie.
+    out = np.full((10, 12), 100.0, np.float32)
+    out[3:7, 4:6] = 250.0
+    neighbour = np.full((10, 12), seen, np.float32)
+    ys, xs = (a.ravel() for a in np.mgrid[3:7, 4:6])
+    n = ys.size
+    found = (ys, xs, np.zeros(n, int), np.zeros((n, 2), np.float32), ys, xs + 4)
+    got = confirmed(found, (10, 12), out, [neighbour])
+    assert (0 if got is None else got[0].size) == kept
+    # A single pixel is a speck, not an object's edge uncovered.
+    one = tuple(a[:1] for a in found)
+    assert confirmed(one, (10, 12), out, [np.full((10, 12), 100.0, np.float32)]) is None
