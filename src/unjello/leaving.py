@@ -132,28 +132,26 @@ def edge_objects(field: np.ndarray, readout: float, reference_row: float
             if (np.unique(ry[core]).size < RUN // 2
                     or np.hypot(*(b - whole)) > UNIFORM * np.hypot(*whole)):
                 continue  # a core a few rows high, or a background unlike the frame's
+            # Across its length an upright object's motion is unsure (the aperture: a
+            # rigid fit gave a pole moving along a pan 9 px a frame of vertical motion):
+            # it moves vertically as its background.
             out.append(EdgeObject(side, far[lo:hi][ry[core]], np.arange(w)[band][rx[core]],
-                                  (float(v[0]), float(v[1])), (float(b[0]), float(b[1]))))
+                                  (float(v[0]), float(b[1])), (float(b[0]), float(b[1]))))
     return out
-
-
-def _middle(values: list[float], step: float) -> float:
-    """Return the middle of the run of ``values`` (``step`` apart, ascending) nearest zero."""
-    v = np.asarray(values)
-    runs = np.split(v, np.flatnonzero(np.diff(v) > step * 1.5) + 1)
-    return float(np.median(min(runs, key=lambda r: float(np.abs(r).min()))))
 
 
 def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.ndarray],
                     steps: list[float], grid: tuple[int, int]) -> list[EdgeObject]:
     """Keep the objects a neighbour shows where their velocity carries them, refined.
 
-    An object's field near the side, blended with its background's at its outline, gives
-    a velocity a few pixels off, and then a thin pole carried beyond the edge lands beside
-    itself. Its core pixels (of this frame's first plane, ``own``) are carried into each
-    neighbour (first planes, ``planes``) at the velocity plus offsets of up to
-    :data:`SEARCH` grid pixels along x; the share of them within :data:`ALIKE` grey levels
-    of what the neighbour shows there is scored, and the middle of the best offsets kept.
+    An object's field near the side can give a velocity a few pixels off, and then a
+    thin pole carried beyond the edge lands beside itself. Its core pixels (of this
+    frame's first plane, ``own``) are carried into each neighbour (first planes,
+    ``planes``) at the velocity plus offsets of up to :data:`SEARCH` grid pixels along x;
+    the share of them within :data:`ALIKE` grey levels of what the neighbour shows there
+    is scored, and of the best offsets the one nearest zero kept (the field's own where it
+    is among them: a pole matches over a range as wide as itself, whose middle is where
+    the core, not the pole, is centred).
     An object whose best share (in the neighbour where most land inside) is under
     :data:`HELD` is dropped: its velocity is not the one the pictures show; so is one that
     its background's velocity carries onto alike pixels nearly as often (by less than half
@@ -187,7 +185,7 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
             landed = max(n for _, n, _ in tried)
             top = max(a for _, _, a in tried)
             if landed >= RUN and (landed, top) > best[:2]:
-                dx = _middle([d for d, _, a in tried if a >= top - 1e-6], 0.5)
+                dx = min((d for d, _, a in tried if a >= top - 1e-6), key=abs)
                 best = (landed, top, dx, share(plane, obj.behind, dt)[1])
         # Held where carried, and not where the background's motion would carry it too
         # (a flat sky matches anywhere).
