@@ -4,7 +4,7 @@ The stages after the optical flow combine a flow field with the camera's motion 
 pixel. In NumPy each step is a whole-field call writing a temporary (a sum, a norm, a
 comparison, a sort): on the 480 x 270 working grid the memory traffic and the calls cost
 more than the arithmetic. Here each job is one loop over the grid (Numba, ``njit`` with
-``cache=True``: compiled once on first use, about 5 s, then loaded from the cache next to
+``cache=True``: compiled once on first use, about 6 s, then loaded from the cache next to
 this file or, where that is read-only, Numba's user-wide cache; with no writable cache
 anywhere, compiled every run). Where OpenCV does a job in one vectorised call (resampling
 a smooth field at moved positions) it stays: compiled loops of those were slower
@@ -61,7 +61,6 @@ def _bilinear(f: np.ndarray, x: float, y: float) -> tuple[float, float]:
     return u, v
 
 
-@_compiled
 def consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     """Pixels whose flow ``fwd`` lands inside the frame and ``bwd`` brings back within ``tol``.
 
@@ -69,8 +68,14 @@ def consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     -------
     ndarray of bool, shape (h, w)
     """
+    ok = np.zeros(fwd.shape[:2], np.bool_)
+    _consistency(fwd, bwd, tol, ok)
+    return ok
+
+
+@_compiled
+def _consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float, ok: np.ndarray) -> None:
     h, w = fwd.shape[0], fwd.shape[1]
-    ok = np.zeros((h, w), np.bool_)
     tol2 = tol * tol
     for i in range(h):
         for j in range(w):
@@ -80,10 +85,8 @@ def consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
                 continue
             u, v = _bilinear(bwd, x, y)
             ok[i, j] = (fwd[i, j, 0] + u) ** 2 + (fwd[i, j, 1] + v) ** 2 <= tol2
-    return ok
 
 
-@_compiled
 def residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float,
                   other_start: float, row_time: float, t_rows: np.ndarray,
                   cam_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -102,10 +105,18 @@ def residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float
     resid : ndarray of shape (h, w, 2), float32
         ``flow + cam_rows[y] - cam(t_landing)``.
     """
+    e = np.empty(flow.shape[:2], np.float32)
+    resid = np.empty(flow.shape, np.float32)
+    _residual_side(flow, cam, grid_t0, step, other_start, row_time, t_rows, cam_rows, e, resid)
+    return e, resid
+
+
+@_compiled
+def _residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float,
+                   other_start: float, row_time: float, t_rows: np.ndarray,
+                   cam_rows: np.ndarray, e: np.ndarray, resid: np.ndarray) -> None:
     h, w = flow.shape[0], flow.shape[1]
     n = cam.shape[0]
-    e = np.empty((h, w), np.float32)
-    resid = np.empty((h, w, 2), np.float32)
     inv_step = 1.0 / step
     for i in range(h):
         t_own = float(t_rows[i])
@@ -120,10 +131,8 @@ def residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float
             e[i, j] = t - t_own
             resid[i, j, 0] = fx + cx - (cam[k0, 0] * (1.0 - a) + cam[k1, 0] * a)
             resid[i, j, 1] = fy + cy - (cam[k0, 1] * (1.0 - a) + cam[k1, 1] * a)
-    return e, resid
 
 
-@_compiled
 def quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndarray,
                     rb: np.ndarray, okb: np.ndarray, ahead: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
@@ -133,9 +142,17 @@ def quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndar
     ``(eb, rb)`` at ``ahead``; with one, the line through it and ``(0, 0)``; with none,
     zero and the fallback set. ``ahead`` has one value a row, shape (h, 1).
     """
+    field = np.zeros((*oka.shape, 2), np.float32)
+    fallback = np.zeros(oka.shape, np.bool_)
+    _quadratic_ahead(ea, ra, oka, eb, rb, okb, ahead, field, fallback)
+    return field, fallback
+
+
+@_compiled
+def _quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndarray,
+                     rb: np.ndarray, okb: np.ndarray, ahead: np.ndarray, field: np.ndarray,
+                     fallback: np.ndarray) -> None:
     h, w = oka.shape
-    field = np.zeros((h, w, 2), np.float32)
-    fallback = np.zeros((h, w), np.bool_)
     for i in range(h):
         t = float(ahead[i, 0])
         for j in range(w):
@@ -157,10 +174,8 @@ def quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndar
                 field[i, j, 1] = s * rb[i, j, 1]
             else:
                 fallback[i, j] = True
-    return field, fallback
 
 
-@_compiled
 def outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Find the pixels whose source lies outside the frame, only in the marked cells.
@@ -177,43 +192,54 @@ def outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray
     sx, sy : ndarray of float32
         Their sources.
     """
-    h, w = map_x.shape
-    th, tw = cells.shape
-    lo = np.empty(tw + 1, np.int64)  # the first pixel column of each cell
-    for c in range(tw + 1):
-        lo[c] = (c * w + tw - 1) // tw
-    count = 0
-    for rnd in range(2):  # count, then fill
-        if rnd == 1:
-            xs = np.empty(count, np.int32)
-            ys = np.empty(count, np.int32)
-            sx = np.empty(count, np.float32)
-            sy = np.empty(count, np.float32)
-        n = 0
-        for y in range(h):
-            cy = y * th // h
-            for c in range(tw):
-                if not cells[cy, c]:
-                    continue
-                for x in range(lo[c], lo[c + 1]):
-                    px, py = map_x[y, x], map_y[y, x]
-                    if px < -0.5 or px > w - 0.5 or py < -0.5 or py > h - 0.5:
-                        if rnd == 1:
-                            xs[n], ys[n], sx[n], sy[n] = x, y, px, py
-                        n += 1
-        count = n
+    w = map_x.shape[1]
+    tw = cells.shape[1]
+    c = np.arange(tw + 1, dtype=np.int64)
+    lo = (c * w + tw - 1) // tw  # the first pixel column of each cell
+    found = [np.empty(0, np.int32), np.empty(0, np.int32), np.empty(0, np.float32),
+             np.empty(0, np.float32)]
+    count = _outside_pixels(cells, map_x, map_y, lo, *found, False)  # count, then fill
+    found = [np.empty(count, a.dtype) for a in found]
+    _outside_pixels(cells, map_x, map_y, lo, *found, True)
+    xs, ys, sx, sy = found
     return xs, ys, sx, sy
 
 
 @_compiled
+def _outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray, lo: np.ndarray,
+                    xs: np.ndarray, ys: np.ndarray, sx: np.ndarray, sy: np.ndarray,
+                    fill: bool) -> int:
+    h, w = map_x.shape
+    th, tw = cells.shape
+    n = 0
+    for y in range(h):
+        cy = y * th // h
+        for c in range(tw):
+            if not cells[cy, c]:
+                continue
+            for x in range(lo[c], lo[c + 1]):
+                px, py = map_x[y, x], map_y[y, x]
+                if px < -0.5 or px > w - 0.5 or py < -0.5 or py > h - 0.5:
+                    if fill:
+                        xs[n], ys[n], sx[n], sy[n] = x, y, px, py
+                    n += 1
+    return n
+
+
 def jacobian_det(field: np.ndarray) -> np.ndarray:
     """``det(I - grad D)`` of the map ``p = s - D(s)`` at every pixel, float32.
 
     Derivatives as ``np.gradient`` takes them: central differences inside, one-sided at
     the grid's edges (zero along an axis of one sample).
     """
+    det = np.empty(field.shape[:2], np.float32)
+    _jacobian_det(field, det)
+    return det
+
+
+@_compiled
+def _jacobian_det(field: np.ndarray, det: np.ndarray) -> None:
     h, w = field.shape[0], field.shape[1]
-    det = np.empty((h, w), np.float32)
     for i in range(h):
         i0, i1 = max(i - 1, 0), min(i + 1, h - 1)
         dy = 1.0 / (i1 - i0) if i1 > i0 else 0.0
@@ -225,7 +251,6 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
             dxy = (field[i1, j, 0] - field[i0, j, 0]) * dy
             dyy = (field[i1, j, 1] - field[i0, j, 1]) * dy
             det[i, j] = (1.0 - dxx) * (1.0 - dyy) - dxy * dyx
-    return det
 
 
 @njit(inline="always")
@@ -236,7 +261,6 @@ def _held_tap(row: np.ndarray, i: int, c: np.float32, b: np.float32, top: float)
     return min(int(v + np.float32(0.5)), top) if top > 0 else v
 
 
-@_compiled
 def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
                top: float) -> np.ndarray:
     """Warp back by rows: ``out[y, x] = image(x + dx[y], sy[y])``, bilinear.
@@ -260,9 +284,16 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
     -------
     ndarray like ``image``
     """
-    h, w = image.shape
     out = np.empty_like(image)
-    row = np.empty(w + 2, np.float32)  # the two source rows blended, one pixel beyond
+    row = np.empty(image.shape[1] + 2, np.float32)  # two source rows blended, a pixel beyond
+    _shift_rows(image, dx, sy, black, top, out, row)
+    return out
+
+
+@_compiled
+def _shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool, top: float,
+                out: np.ndarray, row: np.ndarray) -> None:
+    h, w = image.shape
     ftop = np.float32(top)
     for y in range(h):
         fy = sy[y]
@@ -299,14 +330,14 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
         else:
             for x in range(hi - lo):
                 dst[lo + x] = seg[x] * c + seg[x + 1] * b
-    return out
 
 
 @njit
-def _median(values: np.ndarray) -> float:
-    """Median of a 1-D array (a Shell sort of a copy: quick to compile, unlike ``np.sort``)."""
-    a = values.copy()
-    n = a.size
+def _median(values: np.ndarray, a: np.ndarray) -> float:
+    """Median of a 1-D array, Shell-sorting a copy in ``a`` (quick to compile, unlike np.sort)."""
+    n = values.size
+    for i in range(n):
+        a[i] = values[i]
     gap = 1
     while gap < n // 3:
         gap = 3 * gap + 1
@@ -323,14 +354,14 @@ def _median(values: np.ndarray) -> float:
 
 
 @njit
-def _solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``m x = b`` for a small square system: Gaussian elimination, partial pivoting.
+def _solve(a: np.ndarray, x: np.ndarray) -> None:
+    """Solve ``a x = b`` for a small square system: Gaussian elimination, partial pivoting.
+
+    In place: ``x`` holds ``b`` and becomes the solution; ``a`` is overwritten.
 
     (Numba's ``np.linalg.solve`` takes 8 s to compile; this, a fraction of one.)
     """
-    n = b.size
-    a = m.copy()
-    x = b.copy()
+    n = x.size
     for k in range(n):
         p = k
         for i in range(k + 1, n):
@@ -350,10 +381,8 @@ def _solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
         for j in range(k + 1, n):
             acc -= a[k, j] * x[j]
         x[k] = acc / a[k, k]
-    return x
 
 
-@_compiled
 def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray,
                     rounds: int) -> np.ndarray:
     """Robust least-squares fit of the eight-parameter projective flow to samples.
@@ -367,14 +396,25 @@ def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray
     ndarray of shape (8,), float64
     """
     n = xs.size
-    weight = np.ones(n)
     coef = np.zeros(8)
-    ax = np.zeros(8)
-    ay = np.zeros(8)
-    r = np.empty(n)
+    _projective_irls(xs, ys, u, v, rounds, coef, np.ones(n), np.empty((2, n)),
+                     np.empty((8, 8)), np.empty((2, 8)))
+    return coef
+
+
+@_compiled
+def _projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray, rounds: int,
+                     coef: np.ndarray, weight: np.ndarray, work: np.ndarray, m: np.ndarray,
+                     axy: np.ndarray) -> None:
+    n = xs.size
+    r, srt = work[0], work[1]
+    ax, ay = axy[0], axy[1]
+    ax[:] = 0.0
+    ay[:] = 0.0
     for _ in range(rounds):
-        m = np.zeros((8, 8))
-        b = np.zeros(8)
+        m[:] = 0.0
+        coef[:] = 0.0
+        b = coef  # the right-hand side, solved for in place
         for i in range(n):
             x, y, q = xs[i], ys[i], weight[i] * weight[i]
             ax[0], ax[1], ax[2], ax[6], ax[7] = 1.0, x, y, x * x, x * y
@@ -387,20 +427,18 @@ def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray
             m[a, a] += 1e-12
             for c in range(a):
                 m[a, c] = m[c, a]
-        coef = _solve(m, b)
+        _solve(m, b)
         for i in range(n):
             x, y = xs[i], ys[i]
             quad = coef[6] * x + coef[7] * y
             du = coef[0] + coef[1] * x + coef[2] * y + quad * x - u[i]
             dv = coef[3] + coef[4] * x + coef[5] * y + quad * y - v[i]
             r[i] = math.sqrt(du * du + dv * dv)
-        scale = 1.5 * _median(r) + 1e-3
+        scale = 1.5 * _median(r, srt) + 1e-3
         for i in range(n):
             weight[i] = 1.0 / max(r[i] / scale, 1.0)
-    return coef
 
 
-@_compiled
 def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     """Midpoint of the shortest interval holding half of each row's sorted values.
 
@@ -414,8 +452,14 @@ def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     ndarray of shape (rows, c), float64
         NaN for a row with fewer than two values.
     """
+    out = np.empty((srt.shape[0], srt.shape[2]), np.float64)
+    _shorth_sorted(srt, out)
+    return out
+
+
+@_compiled
+def _shorth_sorted(srt: np.ndarray, out: np.ndarray) -> None:
     rows, n, c = srt.shape
-    out = np.empty((rows, c), np.float64)
     for r in range(rows):
         for k in range(c):
             valid = 0
@@ -428,14 +472,20 @@ def shorth_sorted(srt: np.ndarray) -> np.ndarray:
                 if d < width:
                     best, width = i, d
             out[r, k] = 0.5 * (srt[r, best, k] + srt[r, min(best + half, n - 1), k])
-    return out
 
 
 def warm_up() -> float:
-    """Compile (or load from the cache) every kernel on a tiny grid; seconds it took."""
+    """Compile (or load from the cache) every kernel on a tiny grid.
+
+    Returns
+    -------
+    float
+        The CPU seconds it took (the compiler runs on one thread, so on an idle machine
+        the wall time; CPU time does not count what other processes take meanwhile).
+    """
     import time
 
-    t = time.perf_counter()
+    t = time.process_time()
     f = np.zeros((4, 5, 2), np.float32)
     ok = np.ones((4, 5), np.bool_)
     e = np.ones((4, 5), np.float32)
@@ -449,5 +499,5 @@ def warm_up() -> float:
     shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
     projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
-    return time.perf_counter() - t
+    return time.process_time() - t
 

@@ -264,12 +264,10 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     ks = np.concatenate([np.full(p[1].size, p[0]) for p in parts])
     gx, gy = (xs + 0.5) / sx - 0.5, (ys + 0.5) / sy - 0.5
     first = decided is None
-    if first:
-        assert own is not None
-        decided = np.zeros((ph, pw), np.int8)
-    else:
-        dh, dw = decided.shape
-        at = decided[np.clip(((ys + 0.5) * dh / ph).astype(int), 0, dh - 1),
+    mark = np.zeros((ph, pw), np.int8) if decided is None else decided
+    if not first:
+        dh, dw = mark.shape
+        at = mark[np.clip(((ys + 0.5) * dh / ph).astype(int), 0, dh - 1),
                      np.clip(((xs + 0.5) * dw / pw).astype(int), 0, dw - 1)]
     free = np.ones(ys.size, bool)
     least = 2 * RUN * sx * sy  # plane pixels: a band two grid pixels wide, RUN rows high
@@ -291,6 +289,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                     continue
                 qx, qy = (lx[idx] + 0.5) * sx - 0.5, (ly[idx] + 0.5) * sy - 0.5
                 if first:  # the object as this frame saw it, at its core's nearest row
+                    assert own is not None
                     j = np.searchsorted(obj.rows, s_y[idx]).clip(0, obj.rows.size - 1)
                     j = np.where(np.abs(obj.rows[np.maximum(j - 1, 0)] - s_y[idx])
                                  < np.abs(obj.rows[j] - s_y[idx]), np.maximum(j - 1, 0), j)
@@ -309,9 +308,9 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
             ks[idx], nx[idx], ny[idx] = i, qx, qy
             free[idx] = False
             if first:
-                decided[ys[idx], xs[idx]] = i + 1
+                mark[ys[idx], xs[idx]] = i + 1
     if free.all():
-        return parts[:-1], (None if first else decided)
+        return parts[:-1], (None if first else mark)
     out = [(int(i), ys[ks == i], xs[ks == i], nx[ks == i], ny[ks == i])
            for i in np.unique(ks) if i > -2]
-    return out, decided
+    return out, mark
