@@ -204,8 +204,9 @@ def test_shorth_sorted():
 
 @pytest.mark.slow
 def test_the_kernels_compile_once_and_run_without_a_writable_cache(tmp_path):
-    """First use compiles (under 10 CPU seconds) into the cache, later runs load it; where Numba finds
-    no cache directory it can write (a read-only install, no home), they still run."""
+    """First use compiles (under 10 CPU seconds) into the cache, later runs load it; where
+    Numba finds no cache directory it can write (a read-only install, no home), they still
+    run."""
     code = "from unjello import kernels; print(kernels.warm_up())"
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     times = []
