@@ -165,28 +165,34 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
         seen = sample_points(own, (obj.cols + 0.5) * sx - 0.5, (obj.rows + 0.5) * sy - 0.5
                        ).astype(np.float32).reshape(obj.rows.size, -1)
 
-        def share(plane: np.ndarray, v: tuple[float, float], dt: float,
-                  seen: np.ndarray = seen, obj: EdgeObject = obj) -> tuple[int, float]:
-            """Return how many core pixels ``v`` carries inside, and the share alike."""
-            lx = obj.cols + v[0] * dt
+        def shares(plane: np.ndarray, vx: np.ndarray, vy: float, dt: float,
+                   seen: np.ndarray = seen, obj: EdgeObject = obj
+                   ) -> tuple[np.ndarray, np.ndarray]:
+            """Return, per horizontal velocity of ``vx``, the core pixels carried inside.
+
+            And the share of them alike (0 for one carrying fewer than :data:`RUN`).
+            """
+            lx = obj.cols[None, :] + vx[:, None] * dt
             inside = (lx >= -0.5) & (lx <= gw - 0.5)
-            n = int(inside.sum())
-            if n < RUN:
-                return 0, 0.0
-            ly = (obj.rows[inside] + v[1] * dt).clip(0, gh - 1)
-            there = sample_points(plane, (lx[inside] + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5
-                            ).astype(np.float32).reshape(n, -1)
-            return n, float((np.abs(there - seen[inside]).max(axis=1) <= ALIKE).mean())
+            n = inside.sum(axis=1)
+            ly = (obj.rows + vy * dt).clip(0, gh - 1)
+            there = sample_points(plane, ((lx + 0.5) * sx - 0.5).ravel(),
+                                  np.tile((ly + 0.5) * sy - 0.5, vx.size)
+                                  ).astype(np.float32).reshape(vx.size, obj.rows.size, -1)
+            alike = (np.abs(there - seen[None]).max(axis=2) <= ALIKE) & inside
+            held = n >= RUN
+            return np.where(held, n, 0), np.where(held, alike.sum(axis=1) / np.maximum(n, 1),
+                                                  0.0)
 
         best: tuple[int, float, float, float] = (0, 0.0, 0.0, 1.0)  # landed, share, dx, bg's
+        offsets = np.arange(-SEARCH, SEARCH + 0.25, 0.5)
         for plane, dt in zip(planes, steps, strict=True):
-            tried = [(d, *share(plane, (obj.velocity[0] + d, obj.velocity[1]), dt))
-                     for d in np.arange(-SEARCH, SEARCH + 0.25, 0.5)]
-            landed = max(n for _, n, _ in tried)
-            top = max(a for _, _, a in tried)
+            n, a = shares(plane, obj.velocity[0] + offsets, obj.velocity[1], dt)
+            landed, top = int(n.max()), float(a.max())
             if landed >= RUN and (landed, top) > best[:2]:
-                dx = min((d for d, _, a in tried if a >= top - 1e-6), key=abs)
-                best = (landed, top, dx, share(plane, obj.behind, dt)[1])
+                dx = float(min(offsets[a >= top - 1e-6], key=abs))
+                bg = shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)[1][0]
+                best = (landed, top, dx, float(bg))
         # Held where carried, and not where the background's motion would carry it too
         # (a flat sky matches anywhere).
         if best[1] >= HELD and best[1] - best[3] >= HELD / 2:
