@@ -274,7 +274,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     if not first:
         dh, dw = mark.shape
         at = mark[np.clip(((ys + 0.5) * dh / ph).astype(int), 0, dh - 1),
-                     np.clip(((xs + 0.5) * dw / pw).astype(int), 0, dw - 1)]
+                  np.clip(((xs + 0.5) * dw / pw).astype(int), 0, dw - 1)]
     free = np.ones(ys.size, bool)
     least = 2 * RUN * sx * sy  # plane pixels: a band two grid pixels wide, RUN rows high
     for obj in objects:
