@@ -499,5 +499,10 @@ def warm_up() -> float:
     shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
     projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
+    from . import kernels_field as fk  # its kernels share this module's decorator
+
+    fk.fill_from_weights(f, ok, f, e, f[:, :1], 0.05)
+    fk.keep_lower(*fk.projective_maps(np.zeros(8), f)[:1], f, e, e)
+    fk.row_medians(f, 2)
     return time.process_time() - t
 

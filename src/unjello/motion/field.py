@@ -13,8 +13,9 @@ import cv2
 import numpy as np
 
 from ..kernels import projective_irls, quadratic_ahead
+from ..kernels_field import fill_from_weights, keep_lower, projective_maps
 from ..timing import pixel_grid
-from .flow import patch_cost
+from .flow import map_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
            "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",
@@ -114,19 +115,15 @@ def fill_unreliable(resid: np.ndarray, ok: np.ndarray, sigma: float,
     numf = cv2.resize(kept, small, interpolation=cv2.INTER_AREA)
     w = cv2.resize(cv2.GaussianBlur(okf, (0, 0), sigma / 4), (w_, h))
     num = cv2.resize(cv2.GaussianBlur(numf, (0, 0), sigma / 4), (w_, h))
-    avg = num / both_axes(np.maximum(w, 1e-3))
-    if prior is None:
-        avg[w <= 1e-3] = 0.0
-    elif float(w.min()) <= PRIOR_BELOW:
-        # (np.copyto with a broadcast mask, or NumPy broadcasting a column out, is ten
-        # times slower: see :func:`put`)
-        if prior.shape[:2] == (h, 1):
-            prior = cv2.resize(np.ascontiguousarray(prior, avg.dtype), (w_, h),
-                               interpolation=cv2.INTER_NEAREST).reshape(avg.shape)
-        put(avg, np.ascontiguousarray(np.broadcast_to(prior, avg.shape), avg.dtype),
-            w <= PRIOR_BELOW)
-    put(avg, resid, ok)
-    return avg
+    if prior is not None:
+        prior = np.asarray(prior, np.float32)
+        if prior.ndim != 3 or prior.shape[:2] not in ((h, 1), (h, w_)):
+            prior = np.broadcast_to(prior, resid.shape)
+        prior = np.ascontiguousarray(prior)
+    # The average, the prior where too few reliable pixels weigh, the reliable pixels'
+    # own: one compiled pass (the NumPy steps it replaces: tests/test_kernels_field.py).
+    return fill_from_weights(np.ascontiguousarray(resid, np.float32), np.ascontiguousarray(ok),
+                             num, w, prior, PRIOR_BELOW)
 
 
 def smooth_field(field: np.ndarray) -> np.ndarray:
@@ -259,12 +256,9 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     coef = fit_projective(flow, ok, gx, gy)
     if coef is None:
         return flow
-    glob = projective_flow(coef, gx, gy, (h, w))
-
-    better = (patch_cost(cur, other, gx, gy, glob, window)
-              <= patch_cost(cur, other, gx, gy, flow, window))
-    put(glob, flow, ~better)
-    return glob
+    glob, at_glob, at_flow = projective_maps(coef, flow)  # the model and both fields' maps
+    return keep_lower(glob, flow, map_cost(cur, other, *at_glob, window),
+                      map_cost(cur, other, *at_flow, window))
 
 
 def at_reference(sides: list[tuple[np.ndarray, np.ndarray, np.ndarray]],

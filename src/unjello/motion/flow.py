@@ -19,7 +19,7 @@ from ..kernels import consistency, shorth_sorted
 from ..timing import pixel_grid
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
-           "consistent", "row_flows", "half_row_flows", "invert_flow", "patch_cost",
+           "consistent", "row_flows", "half_row_flows", "invert_flow", "patch_cost", "map_cost",
            "refine_motion_edges", "flow_pair", "explains", "misses"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
@@ -396,8 +396,13 @@ def patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarra
     ``gx, gy`` are the pixel coordinates of ``cur`` in ``other`` without motion (a crop's
     offset included).
     """
-    warped = cv2.remap(other, gx + flow[..., 0], gy + flow[..., 1], cv2.INTER_LINEAR,
-                       borderMode=cv2.BORDER_REPLICATE)
+    return map_cost(cur, other, gx + flow[..., 0], gy + flow[..., 1], window)
+
+
+def map_cost(cur: np.ndarray, other: np.ndarray, map_x: np.ndarray, map_y: np.ndarray,
+             window: int) -> np.ndarray:
+    """Mean absolute difference of ``cur`` and ``other`` sampled at ``(map_x, map_y)``, over patches."""
+    warped = cv2.remap(other, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
 
 

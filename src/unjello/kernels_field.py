@@ -1,0 +1,171 @@
+"""Compiled passes of the dense method's field helpers: the fill, the snap, row medians.
+
+:func:`unjello.motion.field.fill_unreliable` and :func:`~unjello.motion.field.snap_to_global`
+end in a chain of whole-field NumPy calls (a division, a maximum, a mask, two copies under
+it; the projective flow's seven products and the four sampling maps), each writing a
+temporary of the 480 x 270 working grid. Each chain is one loop here, with the same float32
+operations in the same order, so the result is the one NumPy gives, bit for bit (their
+references: ``tests/test_kernels_field.py``). OpenCV keeps what it does in one vectorised
+call (the resampling, the blurs, the patch sums).
+
+Compiled as :mod:`unjello.kernels` is (``njit``, ``cache=True``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kernels import _compiled, _median
+
+__all__ = ["fill_from_weights", "projective_maps", "keep_lower", "row_medians"]
+
+
+def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
+                      prior: np.ndarray | None, prior_below: float) -> np.ndarray:
+    """Return the normalised average ``num / weight`` where ``ok`` is not set, ``resid`` where it is.
+
+    Where the weight is at most ``prior_below``, the ``prior`` instead; with no prior,
+    0 where it is at most 1e-3 (the tail of :func:`~unjello.motion.field.fill_unreliable`).
+
+    Parameters
+    ----------
+    resid, num : ndarray of shape (h, w, 2), float32
+        The field, and the blurred sum of its reliable vectors.
+    ok : ndarray of bool, shape (h, w)
+    weight : ndarray of shape (h, w), float32
+        The blurred share of reliable pixels.
+    prior : ndarray of shape (h, 1, 2) or (h, w, 2), float32, optional
+    prior_below : float
+
+    Returns
+    -------
+    ndarray of shape (h, w, 2), float32
+    """
+    out = np.empty_like(num)
+    has = prior is not None
+    pr = prior if prior is not None else np.zeros((1, 1, 2), np.float32)
+    _fill_from_weights(resid, ok, num, weight, pr, has, np.float32(prior_below), out)
+    return out
+
+
+@_compiled
+def _fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
+                       prior: np.ndarray, has_prior: bool, below: np.float32, out: np.ndarray
+                       ) -> None:
+    h, w = ok.shape
+    floor = np.float32(1e-3)
+    zero = np.float32(0.0)
+    wide = prior.shape[1] > 1
+    for i in range(h):
+        for j in range(w):
+            if ok[i, j]:
+                out[i, j, 0] = resid[i, j, 0]
+                out[i, j, 1] = resid[i, j, 1]
+                continue
+            wt = weight[i, j]
+            if has_prior:
+                if wt <= below:
+                    k = j if wide else 0
+                    out[i, j, 0] = prior[i, k, 0]
+                    out[i, j, 1] = prior[i, k, 1]
+                    continue
+            elif wt <= floor:
+                out[i, j, 0] = zero
+                out[i, j, 1] = zero
+                continue
+            d = max(wt, floor)
+            out[i, j, 0] = num[i, j, 0] / d
+            out[i, j, 1] = num[i, j, 1] / d
+
+
+def projective_maps(coef: np.ndarray, flow: np.ndarray
+                    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray],
+                               tuple[np.ndarray, np.ndarray]]:
+    """Evaluate the projective flow on the pixel grid, with both fields' sampling maps.
+
+    The model of :func:`~unjello.motion.field.projective_flow` at every pixel ``(x, y)``
+    of ``flow``'s grid, and where it and ``flow`` carry each pixel (``x + u``, ``y + v``:
+    the maps :func:`cv2.remap` samples the other frame at).
+
+    Parameters
+    ----------
+    coef : ndarray of shape (8,)
+        The model's coefficients (:func:`~unjello.motion.field.fit_projective`).
+    flow : ndarray of shape (h, w, 2), float32
+
+    Returns
+    -------
+    glob : ndarray of shape (h, w, 2), float32
+    glob_maps, flow_maps : tuple of two ndarray of shape (h, w), float32
+    """
+    h, w = flow.shape[:2]
+    glob = np.empty((h, w, 2), np.float32)
+    maps = np.empty((4, h, w), np.float32)
+    scale = np.float32(1.0 / max(h, w))
+    _projective_maps(np.asarray(coef, np.float32), np.ascontiguousarray(flow, np.float32),
+                     np.float32(0.5 * w), np.float32(0.5 * h), scale, glob, maps)
+    return glob, (maps[0], maps[1]), (maps[2], maps[3])
+
+
+@_compiled
+def _projective_maps(a: np.ndarray, flow: np.ndarray, cx: np.float32, cy: np.float32,
+                     scale: np.float32, glob: np.ndarray, maps: np.ndarray) -> None:
+    h, w = flow.shape[0], flow.shape[1]
+    for i in range(h):
+        gy = np.float32(i)
+        y = (gy - cy) * scale
+        for j in range(w):
+            gx = np.float32(j)
+            x = (gx - cx) * scale
+            quad = a[6] * x + a[7] * y
+            u = a[0] + a[1] * x + a[2] * y + quad * x
+            v = a[3] + a[4] * x + a[5] * y + quad * y
+            glob[i, j, 0] = u
+            glob[i, j, 1] = v
+            maps[0, i, j] = gx + u
+            maps[1, i, j] = gy + v
+            maps[2, i, j] = gx + flow[i, j, 0]
+            maps[3, i, j] = gy + flow[i, j, 1]
+
+
+def keep_lower(glob: np.ndarray, flow: np.ndarray, cost_glob: np.ndarray,
+               cost_flow: np.ndarray) -> np.ndarray:
+    """Put ``flow`` into ``glob`` (in place) where ``cost_glob <= cost_flow`` does not hold; return it."""
+    _keep_lower(glob, np.ascontiguousarray(flow, np.float32), cost_glob, cost_flow)
+    return glob
+
+
+@_compiled
+def _keep_lower(glob: np.ndarray, flow: np.ndarray, cg: np.ndarray, cf: np.ndarray) -> None:
+    h, w = cg.shape
+    for i in range(h):
+        for j in range(w):
+            if not cg[i, j] <= cf[i, j]:
+                glob[i, j, 0] = flow[i, j, 0]
+                glob[i, j, 1] = flow[i, j, 1]
+
+
+def row_medians(values: np.ndarray, step: int = 1) -> np.ndarray:
+    """``np.median(values[:, ::step], axis=1)`` of a float32 ``(h, w, c)`` array, in one pass.
+
+    NaN where a row's values hold one, as NumPy gives.
+    """
+    h, w, c = values.shape
+    out = np.empty((h, c), np.float32)
+    _row_medians(np.ascontiguousarray(values, np.float32), step, out,
+                 np.empty(-(-w // step), np.float32))
+    return out
+
+
+@_compiled
+def _row_medians(values: np.ndarray, step: int, out: np.ndarray, buf: np.ndarray) -> None:
+    h, w, c = values.shape
+    n = buf.size
+    for i in range(h):
+        for k in range(c):
+            nan = False
+            for m in range(n):
+                buf[m] = values[i, m * step, k]
+                nan = nan or buf[m] != buf[m]
+            # (a + b) / 2 in float32 and 0.5 * (a + b) in float64 round alike
+            out[i, k] = np.float32(np.nan) if nan else _median(buf, buf)

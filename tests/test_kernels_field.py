@@ -1,0 +1,116 @@
+"""The field helpers' compiled passes against the NumPy steps they replace, bit for bit."""
+
+import cv2
+import numpy as np
+import pytest
+
+from unjello.kernels_field import fill_from_weights, keep_lower, projective_maps, row_medians
+from unjello.motion.field import (
+    PRIOR_BELOW,
+    fill_unreliable,
+    fit_projective,
+    projective_flow,
+    snap_to_global,
+)
+from unjello.motion.flow import patch_cost
+from unjello.timing import pixel_grid
+
+
+def _field(h=27, w=48, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.normal(0, 3, (h, w, 2)).astype(np.float32)
+
+
+def _fill_reference(resid, ok, num, w, prior):
+    """The NumPy tail of ``fill_unreliable`` as it was."""
+    avg = num / np.stack([np.maximum(w, 1e-3)] * 2, axis=-1)
+    if prior is None:
+        avg[w <= 1e-3] = 0.0
+    elif float(w.min()) <= PRIOR_BELOW:
+        np.copyto(avg, np.broadcast_to(prior, avg.shape), where=(w <= PRIOR_BELOW)[..., None])
+    np.copyto(avg, resid, where=ok[..., None])
+    return avg
+
+
+@pytest.mark.parametrize("prior", ["none", "row", "pixel"])
+def test_fill_from_weights_is_the_numpy_fill(prior):
+    rng = np.random.default_rng(1)
+    resid, num = _field(seed=2), _field(seed=3)
+    ok = rng.random((27, 48)) < 0.5
+    w = rng.random((27, 48)).astype(np.float32) ** 3  # many under both thresholds
+    w[0, :5] = 0.0
+    p = {"none": None, "row": _field(27, 1, 4), "pixel": _field(seed=5)}[prior]
+    got = fill_from_weights(resid, ok, num, w, p, PRIOR_BELOW)
+    want = _fill_reference(resid, ok, num, w, p)
+    np.testing.assert_array_equal(got, want)
+    assert got.dtype == np.float32
+
+
+def test_fill_unreliable_keeps_reliable_pixels_and_takes_the_row_prior_far_from_them():
+    resid = _field(60, 80)
+    ok = np.zeros((60, 80), bool)
+    ok[:, :20] = True
+    prior = np.full((60, 1, 2), 7.0, np.float32)
+    out = fill_unreliable(resid, ok, 4.0, prior=prior)
+    np.testing.assert_array_equal(out[:, :20], resid[:, :20])
+    assert np.all(out[:, 60:] == 7.0)  # beyond 3 sigma of any reliable pixel
+    # A prior given for every pixel is the same as one given per row, broadcast.
+    np.testing.assert_array_equal(
+        fill_unreliable(resid, ok, 4.0, prior=np.broadcast_to(prior, resid.shape)), out)
+
+
+def test_projective_maps_are_the_projective_flow_and_its_maps():
+    h, w = 27, 48
+    flow = _field(h, w)
+    coef = np.array([1.5, -0.3, 0.2, -2.0, 0.1, 0.4, 0.05, -0.07])
+    glob, (gmx, gmy), (fmx, fmy) = projective_maps(coef, flow)
+    gx, gy = pixel_grid(h, w)
+    want = projective_flow(coef, gx, gy, (h, w))
+    np.testing.assert_array_equal(glob, want)
+    np.testing.assert_array_equal(gmx, gx + want[..., 0])
+    np.testing.assert_array_equal(gmy, gy + want[..., 1])
+    np.testing.assert_array_equal(fmx, gx + flow[..., 0])
+    np.testing.assert_array_equal(fmy, gy + flow[..., 1])
+
+
+def test_keep_lower_puts_the_flow_where_the_global_motion_costs_more():
+    rng = np.random.default_rng(6)
+    glob, flow = _field(seed=7), _field(seed=8)
+    cg = rng.random((27, 48)).astype(np.float32)
+    cf = rng.random((27, 48)).astype(np.float32)
+    cg[0, 0] = np.nan  # no comparison holds: the flow
+    want = glob.copy()
+    np.copyto(want, flow, where=~(cg <= cf)[..., None])
+    np.testing.assert_array_equal(keep_lower(glob, flow, cg, cf), want)
+
+
+def test_snap_to_global_is_the_patch_comparison():
+    """The compiled maps and pick give what comparing the two patch costs gave."""
+    rng = np.random.default_rng(9)
+    h, w = 54, 96
+    other = cv2.GaussianBlur(rng.uniform(0, 255, (h, w)).astype(np.float32), (0, 0), 1.5)
+    flow = np.zeros((h, w, 2), np.float32)
+    flow[..., 0] = 2.0
+    flow[20:30, 40:60] = (-3.0, 1.0)  # an object of its own
+    gx, gy = pixel_grid(h, w)
+    cur = cv2.remap(other, gx + flow[..., 0], gy + flow[..., 1], cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_REPLICATE)
+    flow += rng.normal(0, 0.3, flow.shape).astype(np.float32)  # measured, noisy
+    ok = np.ones((h, w), bool)
+    ok[20:30, 40:60] = False  # the fit's samples: the background
+    out = snap_to_global(cur, other, flow.copy(), ok, 9)
+    glob = projective_flow(fit_projective(flow, ok, gx, gy), gx, gy, (h, w))
+    better = patch_cost(cur, other, gx, gy, glob, 9) <= patch_cost(cur, other, gx, gy, flow, 9)
+    want = np.where(better[..., None], glob, flow)
+    np.testing.assert_array_equal(out, want)
+    assert np.abs(out[25, 50] - (-3.0, 1.0)).max() < 1.0  # the object keeps its motion
+    background = out[5:15, 5:90].reshape(-1, 2)
+    assert np.abs(background - (2.0, 0.0)).max(axis=1).mean() < 0.1  # the noise gone
+
+
+@pytest.mark.parametrize("step", [1, 2, 4])
+def test_row_medians_are_numpy_medians(step):
+    values = _field(27, 47)
+    values[3, 8, 1] = np.nan
+    np.testing.assert_array_equal(row_medians(values, step),
+                                  np.median(values[:, ::step], axis=1))
