@@ -4,7 +4,13 @@ import cv2
 import numpy as np
 import pytest
 
-from unjello.kernels_field import fill_from_weights, keep_lower, projective_maps, row_medians
+from unjello.kernels_field import (
+    fill_from_weights,
+    grid_plus,
+    keep_lower,
+    projective_maps,
+    row_medians,
+)
 from unjello.motion.field import (
     PRIOR_BELOW,
     fill_unreliable,
@@ -114,3 +120,25 @@ def test_row_medians_are_numpy_medians(step):
     values[3, 8, 1] = np.nan
     np.testing.assert_array_equal(row_medians(values, step),
                                   np.median(values[:, ::step], axis=1))
+
+
+def test_row_medians_with_ties_and_odd_counts():
+    rng = np.random.default_rng(11)
+    values = rng.integers(0, 4, (50, 31, 2)).astype(np.float32)  # many equal values
+    for step in (1, 2, 3):
+        np.testing.assert_array_equal(row_medians(values, step),
+                                      np.median(values[:, ::step], axis=1))
+
+
+def test_grid_plus_is_the_grid_added():
+    flow = _field(27, 48) * 10
+    flow[2, 3, 0] = np.nan
+    mx, my, inside = grid_plus(flow)
+    gx, gy = pixel_grid(27, 48)
+    np.testing.assert_array_equal(mx, gx + flow[..., 0])
+    np.testing.assert_array_equal(my, gy + flow[..., 1])
+    np.testing.assert_array_equal(inside, (mx >= 0) & (mx <= 47) & (my >= 0) & (my <= 26))
+    assert inside.any() and not inside.all() and not inside[2, 3]
+    mx, my, _ = grid_plus(flow[5:9, 10:20], 5, 10)
+    np.testing.assert_array_equal(mx, gx[5:9, 10:20] + flow[5:9, 10:20, 0])
+    np.testing.assert_array_equal(my, gy[5:9, 10:20] + flow[5:9, 10:20, 1])

@@ -14,10 +14,11 @@ Compiled as :mod:`unjello.kernels` is (``njit``, ``cache=True``).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from .kernels import _compiled, _median
+from .kernels import _compiled
 
-__all__ = ["fill_from_weights", "projective_maps", "keep_lower", "row_medians"]
+__all__ = ["fill_from_weights", "projective_maps", "keep_lower", "row_medians", "grid_plus"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
@@ -161,11 +162,90 @@ def row_medians(values: np.ndarray, step: int = 1) -> np.ndarray:
 def _row_medians(values: np.ndarray, step: int, out: np.ndarray, buf: np.ndarray) -> None:
     h, w, c = values.shape
     n = buf.size
+    two = np.float32(2.0)
     for i in range(h):
         for k in range(c):
             nan = False
             for m in range(n):
                 buf[m] = values[i, m * step, k]
                 nan = nan or buf[m] != buf[m]
-            # (a + b) / 2 in float32 and 0.5 * (a + b) in float64 round alike
-            out[i, k] = np.float32(np.nan) if nan else _median(buf, buf)
+            if nan:
+                out[i, k] = np.float32(np.nan)
+                continue
+            upper = _kth(buf, n // 2)
+            if n % 2:
+                out[i, k] = upper
+            else:  # the mean of the middle two, as NumPy takes it (float32)
+                lower = buf[0]
+                for m in range(1, n // 2):  # the kth's left holds the smaller half
+                    lower = max(lower, buf[m])
+                out[i, k] = (lower + upper) / two
+
+
+@njit
+def _kth(a: np.ndarray, k: int) -> float:
+    """The ``k``-th smallest of ``a`` (no NaN), which is rearranged so that ``a[:k]`` holds smaller values (Wirth's selection)."""
+    lo, hi = 0, a.size - 1
+    while lo < hi:
+        x = a[k]
+        i, j = lo, hi
+        while i <= j:
+            while a[i] < x:
+                i += 1
+            while x < a[j]:
+                j -= 1
+            if i <= j:
+                a[i], a[j] = a[j], a[i]
+                i += 1
+                j -= 1
+        if j < k:
+            lo = i
+        if k < i:
+            hi = j
+    return a[k]
+
+
+def grid_plus(field: np.ndarray, top: int = 0, left: int = 0,
+              out: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each pixel of a block at ``(top, left)`` lands, moved by ``field``; whether inside.
+
+    ``x + u`` and ``y + v`` for pixel ``(x, y)`` (float32, as NumPy adds the coordinate
+    grid), and whether that lies within ``0 .. w - 1``, ``0 .. h - 1`` (the frame, for a
+    block that is the whole frame).
+
+    Parameters
+    ----------
+    field : ndarray of shape (h, w, 2), float32
+    top, left : int
+        The block's first row and column in the frame.
+    out : tuple of two ndarray of shape (h, w), float32, optional
+        Where to write the positions.
+
+    Returns
+    -------
+    x, y : ndarray of shape (h, w), float32
+    inside : ndarray of bool, shape (h, w)
+    """
+    h, w = field.shape[:2]
+    mx, my = out if out is not None else (np.empty((h, w), np.float32),
+                                          np.empty((h, w), np.float32))
+    inside = np.empty((h, w), np.bool_)
+    _grid_plus(np.ascontiguousarray(field, np.float32), top, left, mx, my, inside)
+    return mx, my, inside
+
+
+@_compiled
+def _grid_plus(field: np.ndarray, top: int, left: int, mx: np.ndarray, my: np.ndarray,
+               inside: np.ndarray) -> None:
+    h, w = inside.shape
+    right, bottom = np.float32(w - 1), np.float32(h - 1)
+    zero = np.float32(0.0)
+    for i in range(h):
+        y0 = np.float32(top + i)
+        for j in range(w):
+            x = np.float32(left + j) + field[i, j, 0]
+            y = y0 + field[i, j, 1]
+            mx[i, j] = x
+            my[i, j] = y
+            inside[i, j] = zero <= x <= right and zero <= y <= bottom

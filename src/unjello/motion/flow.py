@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import SettingsError
 from ..kernels import consistency, shorth_sorted
+from ..kernels_field import grid_plus
 from ..timing import pixel_grid
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
@@ -213,10 +214,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
 
 def landing(flow: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where each pixel's flow lands (x, y), and whether that is inside the frame."""
-    h, w = flow.shape[:2]
-    gx = np.arange(w, dtype=np.float32)[None, :] + flow[..., 0]
-    gy = np.arange(h, dtype=np.float32)[:, None] + flow[..., 1]
-    return gx, gy, (gx >= 0) & (gx <= w - 1) & (gy >= 0) & (gy <= h - 1)
+    return grid_plus(flow)
 
 
 def consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
@@ -326,13 +324,16 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
     h, w = flow.shape[:2]
     gx, gy = pixel_grid(h, w)
 
-    def iterate(inv: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    back = -flow  # sampled: -F(q + G) (bilinear weights are symmetric under negation)
+
+    def iterate(inv: np.ndarray, top: int, left: int) -> np.ndarray:
+        maps = (np.empty(inv.shape[:2], np.float32), np.empty(inv.shape[:2], np.float32))
         for _ in range(iterations):
-            inv = -cv2.remap(flow, xs + inv[..., 0], ys + inv[..., 1], cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REPLICATE)
+            mx, my, _ = grid_plus(inv, top, left, maps)
+            inv = cv2.remap(back, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return inv
 
-    inv = iterate(-flow, gx, gy)
+    inv = iterate(back, 0, 0)
     quarter = max(1, w // 4)
     dominant = -np.median(flow[:, quarter:w - quarter:max(1, (w - 2 * quarter) // 80)], axis=1)
     # What entered the other frame is as wide as the motion: the sides that far (and 8 px).
@@ -349,7 +350,7 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
             continue
         r = slice(rows[0], rows[-1] + 1)
         start = np.broadcast_to(dominant[r, None, :], (r.stop - r.start, xs.shape[1], 2))
-        again = iterate(np.ascontiguousarray(start, np.float32), xs[r], ys[r])
+        again = iterate(np.ascontiguousarray(start, np.float32), r.start, cols.start or 0)
         miss2, out2 = _inverse_miss(flow, again, xs[r], ys[r])
         fits = ~out2 & (miss2 <= _INVERSE_MISS)
         better = out[r] & fits
