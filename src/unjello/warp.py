@@ -27,6 +27,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from .kernels_field import grid_plus
 from .lens import Lens
 from .neighbour_fill import NeighbourFill
 from .neighbours import outside_share
@@ -277,13 +278,14 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
     """
     h, w = field.shape[:2]
     f = grid_field(field, (h, w), frame)
-    gx, gy = pixel_grid(h, w)
-    mx, my = gx + f[..., 0], gy + f[..., 1]
+    mx, my, _ = grid_plus(f)
+    spare = (np.empty_like(mx), np.empty_like(my))  # the maps swap between two pairs
     for _ in range(iterations):
         fs = cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        nx, ny = gx + fs[..., 0], gy + fs[..., 1]
+        nx, ny, _ = grid_plus(fs, out=spare)
         sub = (slice(None, None, 2), slice(None, None, 2))  # a cheap convergence test
         moved = max(float(np.abs(nx[sub] - mx[sub]).max()), float(np.abs(ny[sub] - my[sub]).max()))
+        spare = (mx, my)
         mx, my = nx, ny
         if moved < tol:
             break
