@@ -505,5 +505,9 @@ def warm_up() -> float:
     fk.keep_lower(*fk.projective_maps(np.zeros(8), f)[:1], f, e, e)
     fk.row_medians(f, 2)
     fk.grid_plus(f, 1, 2)
+    from .kernels_drift import drift_costs
+
+    drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.zeros((1, 2)), np.arange(3.0),
+                np.zeros(3, complex), 0j, (1.0, 1.0), 0j, 0.1, 2, 40.0)
     return time.process_time() - t
 

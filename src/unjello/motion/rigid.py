@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from ..kernels_drift import drift_costs
+
 __all__ = ["Spin", "Track", "PathTrack", "carried", "costs", "fit_drift", "prepare", "rotate",
            "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
 
@@ -217,6 +219,12 @@ def costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np
     h, w = image.shape
     t_s = row_time * pts[:, 1]
     own = sample(image, pts[:, 0], pts[:, 1])
+    if isinstance(track, PathTrack) and not np.any(omega) and 1 <= len(others) <= 2:
+        # Drifts alone: one compiled loop (its reference: this function's NumPy below).
+        return drift_costs(own, list(others), pts,
+                           np.zeros((len(omega), 2)) if drift is None else drift,
+                           track.times, track.path, track.u, track.scale, track.drift,
+                           row_time, iterations, TRUNCATE)
     total = np.zeros((len(omega), len(pts)))
     seen = np.zeros_like(total)
     for other, offset in others:
