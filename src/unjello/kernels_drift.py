@@ -80,7 +80,7 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
     return out
 
 
-@njit(inline="always")
+@njit
 def _track(times: np.ndarray, px: np.ndarray, py: np.ndarray, t: float, k: np.ndarray
            ) -> tuple[float, float]:
     """The track at time ``t``: ``k`` = (u.x, u.y, scale.x, scale.y, drift.x, drift.y)."""
