@@ -4,9 +4,10 @@ The stages after the optical flow combine a flow field with the camera's motion 
 pixel. In NumPy each step is a whole-field call writing a temporary (a sum, a norm, a
 comparison, a sort): on the 480 x 270 working grid the memory traffic and the calls cost
 more than the arithmetic. Here each job is one loop over the grid (Numba, ``njit`` with
-``cache=True``: compiled once on first use, about 6 s, then loaded from the cache next to
-this file or, where that is read-only, Numba's user-wide cache; with no writable cache
-anywhere, compiled every run). Where OpenCV does a job in one vectorised call (resampling
+``cache=True``: compiled once on first use, about 7 s with :mod:`unjello.kernels_field`'s
+and :mod:`unjello.kernels_drift`'s, then loaded from the cache next to this file or,
+where that is read-only, Numba's user-wide cache; with no writable cache anywhere,
+compiled every run). Where OpenCV does a job in one vectorised call (resampling
 a smooth field at moved positions) it stays: compiled loops of those were slower
 (``docs/measurements.md``).
 
