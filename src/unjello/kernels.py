@@ -508,7 +508,7 @@ def warm_up() -> float:
     fk.grid_plus(f, 1, 2)
     from .kernels_drift import drift_costs
 
-    drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.zeros((1, 2)), np.arange(3.0),
-                np.zeros(3, complex), 0j, (1.0, 1.0), 0j, 0.1, 2, 40.0)
+    drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.arange(3.0), np.zeros(3, complex),
+                0j, (1.0, 1.0), 0j, 0.1, 2, 40.0)(np.zeros((1, 2)))
     return time.process_time() - t
 

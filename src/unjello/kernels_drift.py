@@ -19,6 +19,7 @@ point (``tests/motion/test_rigid.py``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -29,10 +30,13 @@ __all__ = ["drift_costs"]
 
 
 def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np.ndarray,
-                drifts: np.ndarray, times: np.ndarray, path: np.ndarray, u: complex,
-                scale: tuple[float, float], drift0: complex, row_time: float,
-                iterations: int, truncate: float) -> np.ndarray:
-    """Return each point's truncated difference with where each drift puts it, shape (m, n).
+                times: np.ndarray, path: np.ndarray, u: complex, scale: tuple[float, float],
+                drift0: complex, row_time: float, iterations: int, truncate: float
+                ) -> Callable[[np.ndarray], np.ndarray]:
+    """Return a scorer of drifts: each point's truncated difference with where a drift puts it.
+
+    Everything but the drifts is made ready once: a pattern search scores a few drifts
+    at a time, hundreds of times, on the same points.
 
     Parameters
     ----------
@@ -43,8 +47,6 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
         relative to the frame's, in frame intervals.
     pts : ndarray of shape (n, 2)
         The points (x, y) in the frame.
-    drifts : ndarray of shape (m, 2)
-        Velocities (px per frame interval) on top of the track's.
     times, path : ndarray of shape (T,)
         The track's samples: times, and positions as ``x + iy``.
     u, drift0 : complex
@@ -60,24 +62,30 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
 
     Returns
     -------
-    ndarray of shape (m, n), float64
-        Averaged over the neighbours in which the point lands inside the frame.
+    callable
+        Takes drifts, shape (m, 2) (px per frame interval, on top of the track's), and
+        returns the costs, shape (m, n), float64: averaged over the neighbours in which
+        the point lands inside the frame.
     """
     if not 1 <= len(others) <= 2:
         raise ValueError("one or two neighbours")
     (a, off_a), (b, off_b) = others[0], others[-1]
-    drifts = np.ascontiguousarray(drifts, np.float64)
-    out = np.empty((len(drifts), len(pts)))
-    _drift_costs(np.ascontiguousarray(own, np.float64), np.ascontiguousarray(a, np.float32),
-                 float(off_a), np.ascontiguousarray(b, np.float32), float(off_b), len(others),
-                 np.ascontiguousarray(pts, np.float64), drifts,
-                 np.argsort(drifts[:, 1], kind="stable"),
-                 np.ascontiguousarray(times, np.float64),
-                 np.ascontiguousarray(np.real(path), np.float64),
-                 np.ascontiguousarray(np.imag(path), np.float64),
-                 np.array([u.real, u.imag, scale[0], scale[1], drift0.real, drift0.imag]),
-                 float(row_time), int(iterations), float(truncate), out)
-    return out
+    fixed = (np.ascontiguousarray(own, np.float64), np.ascontiguousarray(a, np.float32),
+             float(off_a), np.ascontiguousarray(b, np.float32), float(off_b), len(others),
+             np.ascontiguousarray(pts, np.float64))
+    track = (np.ascontiguousarray(times, np.float64),
+             np.ascontiguousarray(np.real(path), np.float64),
+             np.ascontiguousarray(np.imag(path), np.float64),
+             np.array([u.real, u.imag, scale[0], scale[1], drift0.real, drift0.imag]),
+             float(row_time), int(iterations), float(truncate))
+
+    def score(drifts: np.ndarray) -> np.ndarray:
+        drifts = np.ascontiguousarray(drifts, np.float64)
+        out = np.empty((len(drifts), len(fixed[6])))
+        _drift_costs(*fixed, drifts, np.argsort(drifts[:, 1], kind="stable"), *track, out)
+        return out
+
+    return score
 
 
 @njit

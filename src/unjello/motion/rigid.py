@@ -18,8 +18,8 @@ import numpy as np
 
 from ..kernels_drift import drift_costs
 
-__all__ = ["Spin", "Track", "PathTrack", "carried", "costs", "fit_drift", "prepare", "rotate",
-           "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
+__all__ = ["Spin", "Track", "PathTrack", "carried", "costs", "drift_scorer", "fit_drift",
+           "prepare", "rotate", "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
 
 #: Grey-level difference at which the match cost saturates (an occluded or
 #: mis-modelled pixel costs no more than this).
@@ -217,14 +217,12 @@ def costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np
     Averaged over the neighbours in which the point is predicted inside the frame.
     """
     h, w = image.shape
+    if not np.any(omega):
+        scorer = drift_scorer(image, others, pts, track, row_time, iterations)
+        if scorer is not None:  # drifts alone: compiled (its reference: the NumPy below)
+            return scorer(np.zeros((len(omega), 2)) if drift is None else drift)
     t_s = row_time * pts[:, 1]
     own = sample(image, pts[:, 0], pts[:, 1])
-    if isinstance(track, PathTrack) and not np.any(omega) and 1 <= len(others) <= 2:
-        # Drifts alone: one compiled loop (its reference: this function's NumPy below).
-        return drift_costs(own, list(others), pts,
-                           np.zeros((len(omega), 2)) if drift is None else drift,
-                           track.times, track.path, track.u, track.scale, track.drift,
-                           row_time, iterations, TRUNCATE)
     total = np.zeros((len(omega), len(pts)))
     seen = np.zeros_like(total)
     for other, offset in others:
@@ -236,6 +234,21 @@ def costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np
         total += np.where(inside, np.minimum(np.abs(val - own[None]), TRUNCATE), 0.0)
         seen += inside
     return np.where(seen > 0, total / np.maximum(seen, 1), TRUNCATE)
+
+
+def drift_scorer(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
+                 pts: np.ndarray, track: Track, row_time: float, iterations: int
+                 ) -> Callable[[np.ndarray], np.ndarray] | None:
+    """:func:`costs` of drifts alone (no rotation) on these points, made ready once.
+
+    Compiled (:func:`~unjello.kernels_drift.drift_costs`) for a :class:`PathTrack` and one
+    or two neighbours; None otherwise.
+    """
+    if not isinstance(track, PathTrack) or not 1 <= len(others) <= 2:
+        return None
+    return drift_costs(sample(image, pts[:, 0], pts[:, 1]), list(others), pts, track.times,
+                       track.path, track.u, track.scale, track.drift, row_time, iterations,
+                       TRUNCATE)
 
 
 def pattern_search(cost: Callable[[np.ndarray], np.ndarray], x: np.ndarray, best: float,
@@ -387,11 +400,14 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
 
     fine = prep.fine[::max(1, len(prep.fine) // 500)]
 
+    scorer = drift_scorer(image, others, fine, track, readout / h, 3)
+
     def cost(vs: np.ndarray, penalty: float = DRIFT_PENALTY) -> np.ndarray:
         """Score drifts ``vs`` (m, 2) together: their costs, each raised by its speed."""
-        raw = costs(image, others, fine, np.repeat(prep.centroid[None], len(vs), 0),
-                    np.zeros(len(vs)), track, t_ref, readout / h, iterations=3,
-                    drift=vs).mean(axis=1)
+        raw = (scorer(vs) if scorer is not None else costs(
+            image, others, fine, np.repeat(prep.centroid[None], len(vs), 0),
+            np.zeros(len(vs)), track, t_ref, readout / h, iterations=3, drift=vs)
+               ).mean(axis=1)
         return raw * (1 + penalty * np.hypot(*(vs * prep.scale).T) / far)
 
     results = []
