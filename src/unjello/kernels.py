@@ -22,22 +22,14 @@ Arrays in, arrays out; float32 fields of shape (h, w, 2), C-contiguous.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from numba import njit
 
+from .jit import compiled
+
 __all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
            "projective_irls", "shift_rows", "shorth_sorted", "warm_up"]
-
-
-def _compiled(fn: Callable[..., Any]) -> Any:
-    """``njit(cache=True)``; where no cache directory is writable, compiled every run."""
-    try:
-        return njit(cache=True)(fn)
-    except RuntimeError:  # Numba found no writable cache directory
-        return njit(fn)
 
 
 @njit(inline="always")
@@ -74,7 +66,7 @@ def consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
     return ok
 
 
-@_compiled
+@compiled
 def _consistency(fwd: np.ndarray, bwd: np.ndarray, tol: float, ok: np.ndarray) -> None:
     h, w = fwd.shape[0], fwd.shape[1]
     tol2 = tol * tol
@@ -112,7 +104,7 @@ def residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float
     return e, resid
 
 
-@_compiled
+@compiled
 def _residual_side(flow: np.ndarray, cam: np.ndarray, grid_t0: float, step: float,
                    other_start: float, row_time: float, t_rows: np.ndarray,
                    cam_rows: np.ndarray, e: np.ndarray, resid: np.ndarray) -> None:
@@ -149,7 +141,7 @@ def quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndar
     return field, fallback
 
 
-@_compiled
+@compiled
 def _quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.ndarray,
                      rb: np.ndarray, okb: np.ndarray, ahead: np.ndarray, field: np.ndarray,
                      fallback: np.ndarray) -> None:
@@ -206,7 +198,7 @@ def outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray
     return xs, ys, sx, sy
 
 
-@_compiled
+@compiled
 def _outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray, lo: np.ndarray,
                     xs: np.ndarray, ys: np.ndarray, sx: np.ndarray, sy: np.ndarray,
                     fill: bool) -> int:
@@ -238,7 +230,7 @@ def jacobian_det(field: np.ndarray) -> np.ndarray:
     return det
 
 
-@_compiled
+@compiled
 def _jacobian_det(field: np.ndarray, det: np.ndarray) -> None:
     h, w = field.shape[0], field.shape[1]
     for i in range(h):
@@ -291,7 +283,7 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
     return out
 
 
-@_compiled
+@compiled
 def _shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool, top: float,
                 out: np.ndarray, row: np.ndarray) -> None:
     h, w = image.shape
@@ -403,7 +395,7 @@ def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray
     return coef
 
 
-@_compiled
+@compiled
 def _projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray, rounds: int,
                      coef: np.ndarray, weight: np.ndarray, work: np.ndarray, m: np.ndarray,
                      axy: np.ndarray) -> None:
@@ -458,7 +450,7 @@ def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     return out
 
 
-@_compiled
+@compiled
 def _shorth_sorted(srt: np.ndarray, out: np.ndarray) -> None:
     rows, n, c = srt.shape
     for r in range(rows):

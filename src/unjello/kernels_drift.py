@@ -24,7 +24,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
-from .kernels import _compiled
+from .jit import compiled
 
 __all__ = ["drift_costs"]
 
@@ -91,7 +91,7 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
 @njit
 def _track(times: np.ndarray, px: np.ndarray, py: np.ndarray, t: float, k: np.ndarray
            ) -> tuple[float, float]:
-    """The track at time ``t``: ``k`` = (u.x, u.y, scale.x, scale.y, drift.x, drift.y)."""
+    """Return the track at time ``t``; ``k`` = (u.x, u.y, scale.x, scale.y, drift.x, drift.y)."""
     last = times.size - 1
     if t <= times[0]:
         x, y = px[0], py[0]
@@ -126,7 +126,7 @@ def _sample(img: np.ndarray, x: float, y: float) -> float:
             + (img[y1, x0] * (1.0 - ax) + img[y1, x1] * ax) * ay)
 
 
-@_compiled
+@compiled
 def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, off_b: float,
                  count: int, pts: np.ndarray, drifts: np.ndarray, order: np.ndarray,
                  times: np.ndarray, px: np.ndarray, py: np.ndarray, k: np.ndarray,

@@ -16,14 +16,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .kernels import _compiled
+from .jit import compiled
 
 __all__ = ["fill_from_weights", "projective_maps", "keep_lower", "row_medians", "grid_plus"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
                       prior: np.ndarray | None, prior_below: float) -> np.ndarray:
-    """Return the normalised average ``num / weight`` where ``ok`` is not set, ``resid`` where it is.
+    """Return the average ``num / weight`` where ``ok`` is not set, ``resid`` where it is.
 
     Where the weight is at most ``prior_below``, the ``prior`` instead; with no prior,
     0 where it is at most 1e-3 (the tail of :func:`~unjello.motion.field.fill_unreliable`).
@@ -49,7 +49,7 @@ def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight
     return out
 
 
-@_compiled
+@compiled
 def _fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
                        prior: np.ndarray, has_prior: bool, below: np.float32, out: np.ndarray
                        ) -> None:
@@ -108,7 +108,7 @@ def projective_maps(coef: np.ndarray, flow: np.ndarray
     return glob, (maps[0], maps[1]), (maps[2], maps[3])
 
 
-@_compiled
+@compiled
 def _projective_maps(a: np.ndarray, flow: np.ndarray, cx: np.float32, cy: np.float32,
                      scale: np.float32, glob: np.ndarray, maps: np.ndarray) -> None:
     h, w = flow.shape[0], flow.shape[1]
@@ -131,12 +131,12 @@ def _projective_maps(a: np.ndarray, flow: np.ndarray, cx: np.float32, cy: np.flo
 
 def keep_lower(glob: np.ndarray, flow: np.ndarray, cost_glob: np.ndarray,
                cost_flow: np.ndarray) -> np.ndarray:
-    """Put ``flow`` into ``glob`` (in place) where ``cost_glob <= cost_flow`` does not hold; return it."""
+    """Put ``flow`` into ``glob`` where ``cost_glob <= cost_flow`` does not hold; return it."""
     _keep_lower(glob, np.ascontiguousarray(flow, np.float32), cost_glob, cost_flow)
     return glob
 
 
-@_compiled
+@compiled
 def _keep_lower(glob: np.ndarray, flow: np.ndarray, cg: np.ndarray, cf: np.ndarray) -> None:
     h, w = cg.shape
     for i in range(h):
@@ -158,7 +158,7 @@ def row_medians(values: np.ndarray, step: int = 1) -> np.ndarray:
     return out
 
 
-@_compiled
+@compiled
 def _row_medians(values: np.ndarray, step: int, out: np.ndarray, buf: np.ndarray) -> None:
     h, w, c = values.shape
     n = buf.size
@@ -184,7 +184,10 @@ def _row_medians(values: np.ndarray, step: int, out: np.ndarray, buf: np.ndarray
 
 @njit
 def _kth(a: np.ndarray, k: int) -> float:
-    """The ``k``-th smallest of ``a`` (no NaN), which is rearranged so that ``a[:k]`` holds smaller values (Wirth's selection)."""
+    """Return the ``k``-th smallest of ``a`` (no NaN), rearranging it (Wirth's selection).
+
+    Afterwards ``a[:k]`` holds values no larger, ``a[k + 1:]`` values no smaller.
+    """
     lo, hi = 0, a.size - 1
     while lo < hi:
         x = a[k]
@@ -235,7 +238,7 @@ def grid_plus(field: np.ndarray, top: int = 0, left: int = 0,
     return mx, my, inside
 
 
-@_compiled
+@compiled
 def _grid_plus(field: np.ndarray, top: int, left: int, mx: np.ndarray, my: np.ndarray,
                inside: np.ndarray) -> None:
     h, w = inside.shape

@@ -27,6 +27,7 @@ from .errors import InputError, SettingsError
 from .exports import SideOutputs
 from .gyroflow import check_project, clip_project
 from .gyrolog import GyroLog
+from .heap import trim
 from .io.codecs import check_output
 from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
@@ -459,6 +460,7 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
             traj.frames.append(_light(fm))
             if progress:
                 progress(sink.frames_written, total)
+            trim(sink.frames_written)  # the freed memory back (glibc keeps it)
 
     # Ahead of a part: the stabiliser's smoothing window, or a second, for the motion.
     before = math.ceil(resolved.fps * max(1.0, 2.0 * config.stabilize.smoothness))

@@ -402,7 +402,7 @@ def patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarra
 
 def map_cost(cur: np.ndarray, other: np.ndarray, map_x: np.ndarray, map_y: np.ndarray,
              window: int) -> np.ndarray:
-    """Mean absolute difference of ``cur`` and ``other`` sampled at ``(map_x, map_y)``, over patches."""
+    """Mean absolute difference of ``cur`` and ``other`` at ``(map_x, map_y)``, over patches."""
     warped = cv2.remap(other, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
 
