@@ -7,9 +7,7 @@ import pytest
 from unjello.kernels_field import (
     fill_from_weights,
     grid_plus,
-    keep_lower,
     projective_maps,
-    row_medians,
 )
 from unjello.motion.field import (
     PRIOR_BELOW,
@@ -79,17 +77,6 @@ def test_projective_maps_are_the_projective_flow_and_its_maps():
     np.testing.assert_array_equal(fmy, gy + flow[..., 1])
 
 
-def test_keep_lower_puts_the_flow_where_the_global_motion_costs_more():
-    rng = np.random.default_rng(6)
-    glob, flow = _field(seed=7), _field(seed=8)
-    cg = rng.random((27, 48)).astype(np.float32)
-    cf = rng.random((27, 48)).astype(np.float32)
-    cg[0, 0] = np.nan  # no comparison holds: the flow
-    want = glob.copy()
-    np.copyto(want, flow, where=~(cg <= cf)[..., None])
-    np.testing.assert_array_equal(keep_lower(glob, flow, cg, cf), want)
-
-
 def test_snap_to_global_is_the_patch_comparison():
     """The compiled maps and pick give what comparing the two patch costs gave."""
     rng = np.random.default_rng(9)
@@ -112,22 +99,6 @@ def test_snap_to_global_is_the_patch_comparison():
     assert np.abs(out[25, 50] - (-3.0, 1.0)).max() < 1.0  # the object keeps its motion
     background = out[5:15, 5:90].reshape(-1, 2)
     assert np.abs(background - (2.0, 0.0)).max(axis=1).mean() < 0.1  # the noise gone
-
-
-@pytest.mark.parametrize("step", [1, 2, 4])
-def test_row_medians_are_numpy_medians(step):
-    values = _field(27, 47)
-    values[3, 8, 1] = np.nan
-    np.testing.assert_array_equal(row_medians(values, step),
-                                  np.median(values[:, ::step], axis=1))
-
-
-def test_row_medians_with_ties_and_odd_counts():
-    rng = np.random.default_rng(11)
-    values = rng.integers(0, 4, (50, 31, 2)).astype(np.float32)  # many equal values
-    for step in (1, 2, 3):
-        np.testing.assert_array_equal(row_medians(values, step),
-                                      np.median(values[:, ::step], axis=1))
 
 
 def test_grid_plus_is_the_grid_added():

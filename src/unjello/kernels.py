@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from . import kernels_drift, kernels_field
 from .jit import compiled
 
 __all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
@@ -492,15 +493,11 @@ def warm_up() -> float:
     shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
     projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
-    from . import kernels_field as fk  # its kernels share this module's decorator
-
-    fk.fill_from_weights(f, ok, f, e, f[:, :1], 0.05)
-    fk.keep_lower(*fk.projective_maps(np.zeros(8), f)[:1], f, e, e)
-    fk.row_medians(f, 2)
-    fk.grid_plus(f, 1, 2)
-    from .kernels_drift import drift_costs
-
-    drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.arange(3.0), np.zeros(3, complex),
-                0j, (1.0, 1.0), 0j, 0.1, 2, 40.0)(np.zeros((1, 2)))
+    kernels_field.fill_from_weights(f, ok, f, e, f[:, :1], 0.05)
+    kernels_field.projective_maps(np.zeros(8), f)
+    kernels_field.grid_plus(f, 1, 2)
+    kernels_drift.drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.arange(3.0),
+                              np.zeros(3, complex), 0j, (1.0, 1.0), 0j, 0.1, 2,
+                              40.0)(np.zeros((1, 2)))
     return time.process_time() - t
 

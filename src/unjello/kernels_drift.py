@@ -79,10 +79,13 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
              np.array([u.real, u.imag, scale[0], scale[1], drift0.real, drift0.imag]),
              float(row_time), int(iterations), float(truncate))
 
+    work = np.empty((2, 3))
+
     def score(drifts: np.ndarray) -> np.ndarray:
         drifts = np.ascontiguousarray(drifts, np.float64)
         out = np.empty((len(drifts), len(fixed[6])))
-        _drift_costs(*fixed, drifts, np.argsort(drifts[:, 1], kind="stable"), *track, out)
+        _drift_costs(*fixed, drifts, np.argsort(drifts[:, 1], kind="stable"), *track, out,
+                     work)
         return out
 
     return score
@@ -130,14 +133,14 @@ def _sample(img: np.ndarray, x: float, y: float) -> float:
 def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, off_b: float,
                  count: int, pts: np.ndarray, drifts: np.ndarray, order: np.ndarray,
                  times: np.ndarray, px: np.ndarray, py: np.ndarray, k: np.ndarray,
-                 row_time: float, iterations: int, truncate: float, out: np.ndarray) -> None:
+                 row_time: float, iterations: int, truncate: float, out: np.ndarray,
+                 work: np.ndarray) -> None:
     h, w = a.shape
     n = pts.shape[0]
-    # Per neighbour: the time the point is imaged there and the track's move till then.
-    # Without rotation its scanline depends on the drift's vertical part alone: solved
-    # once per distinct one (``order`` sorts the drifts by it).
-    t_o = np.empty(2)
-    move = np.empty((2, 2))
+    # Per neighbour (``work``'s rows): the time from the point's own to where it is imaged
+    # there, and the track's move till then. Without rotation its scanline depends on the
+    # drift's vertical part alone: solved once per distinct one (``order`` sorts the
+    # drifts by it).
     for i in range(n):
         x, y = pts[i, 0], pts[i, 1]
         t_s = row_time * y
@@ -153,13 +156,13 @@ def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, of
                         t = off + row_time * (y + _track(times, px, py, t, k)[1] - sy
                                               + vy * (t - t_s))
                     cx, cy = _track(times, px, py, t, k)
-                    t_o[o] = t - t_s
-                    move[o, 0] = cx - sx
-                    move[o, 1] = cy - sy
+                    work[o, 0] = t - t_s
+                    work[o, 1] = cx - sx
+                    work[o, 2] = cy - sy
             total, seen = 0.0, 0
             for o in range(count):
-                qx = x + move[o, 0] + vx * t_o[o]
-                qy = y + move[o, 1] + vy * t_o[o]
+                qx = x + work[o, 1] + vx * work[o, 0]
+                qy = y + work[o, 2] + vy * work[o, 0]
                 if 0.0 <= qx <= w - 1 and 0.0 <= qy <= h - 1:
                     img = a if o == 0 else b
                     total += min(math.fabs(_sample(img, qx, qy) - own[i]), truncate)

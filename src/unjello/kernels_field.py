@@ -1,4 +1,4 @@
-"""Compiled passes of the dense method's field helpers: the fill, the snap, row medians.
+"""Compiled passes of the dense method's field helpers: the fill, the snap, the maps.
 
 :func:`unjello.motion.field.fill_unreliable` and :func:`~unjello.motion.field.snap_to_global`
 end in a chain of whole-field NumPy calls (a division, a maximum, a mask, two copies under
@@ -14,11 +14,10 @@ Compiled as :mod:`unjello.kernels` is (``njit``, ``cache=True``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from .jit import compiled
 
-__all__ = ["fill_from_weights", "projective_maps", "keep_lower", "row_medians", "grid_plus"]
+__all__ = ["fill_from_weights", "projective_maps", "grid_plus"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
@@ -127,85 +126,6 @@ def _projective_maps(a: np.ndarray, flow: np.ndarray, cx: np.float32, cy: np.flo
             maps[1, i, j] = gy + v
             maps[2, i, j] = gx + flow[i, j, 0]
             maps[3, i, j] = gy + flow[i, j, 1]
-
-
-def keep_lower(glob: np.ndarray, flow: np.ndarray, cost_glob: np.ndarray,
-               cost_flow: np.ndarray) -> np.ndarray:
-    """Put ``flow`` into ``glob`` where ``cost_glob <= cost_flow`` does not hold; return it."""
-    _keep_lower(glob, np.ascontiguousarray(flow, np.float32), cost_glob, cost_flow)
-    return glob
-
-
-@compiled
-def _keep_lower(glob: np.ndarray, flow: np.ndarray, cg: np.ndarray, cf: np.ndarray) -> None:
-    h, w = cg.shape
-    for i in range(h):
-        for j in range(w):
-            if not cg[i, j] <= cf[i, j]:
-                glob[i, j, 0] = flow[i, j, 0]
-                glob[i, j, 1] = flow[i, j, 1]
-
-
-def row_medians(values: np.ndarray, step: int = 1) -> np.ndarray:
-    """``np.median(values[:, ::step], axis=1)`` of a float32 ``(h, w, c)`` array, in one pass.
-
-    NaN where a row's values hold one, as NumPy gives.
-    """
-    h, w, c = values.shape
-    out = np.empty((h, c), np.float32)
-    _row_medians(np.ascontiguousarray(values, np.float32), step, out,
-                 np.empty(-(-w // step), np.float32))
-    return out
-
-
-@compiled
-def _row_medians(values: np.ndarray, step: int, out: np.ndarray, buf: np.ndarray) -> None:
-    h, w, c = values.shape
-    n = buf.size
-    two = np.float32(2.0)
-    for i in range(h):
-        for k in range(c):
-            nan = False
-            for m in range(n):
-                buf[m] = values[i, m * step, k]
-                nan = nan or buf[m] != buf[m]
-            if nan:
-                out[i, k] = np.float32(np.nan)
-                continue
-            upper = _kth(buf, n // 2)
-            if n % 2:
-                out[i, k] = upper
-            else:  # the mean of the middle two, as NumPy takes it (float32)
-                lower = buf[0]
-                for m in range(1, n // 2):  # the kth's left holds the smaller half
-                    lower = max(lower, buf[m])
-                out[i, k] = (lower + upper) / two
-
-
-@njit
-def _kth(a: np.ndarray, k: int) -> float:
-    """Return the ``k``-th smallest of ``a`` (no NaN), rearranging it (Wirth's selection).
-
-    Afterwards ``a[:k]`` holds values no larger, ``a[k + 1:]`` values no smaller.
-    """
-    lo, hi = 0, a.size - 1
-    while lo < hi:
-        x = a[k]
-        i, j = lo, hi
-        while i <= j:
-            while a[i] < x:
-                i += 1
-            while x < a[j]:
-                j -= 1
-            if i <= j:
-                a[i], a[j] = a[j], a[i]
-                i += 1
-                j -= 1
-        if j < k:
-            lo = i
-        if k < i:
-            hi = j
-    return a[k]
 
 
 def grid_plus(field: np.ndarray, top: int = 0, left: int = 0,

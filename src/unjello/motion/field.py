@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from ..kernels import projective_irls, quadratic_ahead
-from ..kernels_field import fill_from_weights, keep_lower, projective_maps
+from ..kernels_field import fill_from_weights, projective_maps
 from ..timing import pixel_grid
 from .flow import map_cost
 
@@ -257,8 +257,11 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     if coef is None:
         return flow
     glob, at_glob, at_flow = projective_maps(coef, flow)  # the model and both fields' maps
-    return keep_lower(glob, flow, map_cost(cur, other, *at_glob, window),
-                      map_cost(cur, other, *at_flow, window))
+    # The flow where the global motion costs more (the costs are finite: a patch mean).
+    worse = cv2.compare(map_cost(cur, other, *at_glob, window),
+                        map_cost(cur, other, *at_flow, window), cv2.CMP_GT)
+    cv2.copyTo(np.ascontiguousarray(flow, np.float32), worse, glob)
+    return glob
 
 
 def at_reference(sides: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
