@@ -3,12 +3,14 @@
 :func:`unjello.motion.field.fill_unreliable` and :func:`~unjello.motion.field.snap_to_global`
 end in a chain of whole-field NumPy calls (a division, a maximum, a mask, two copies under
 it; the projective flow's seven products and the four sampling maps), each writing a
-temporary of the 480 x 270 working grid. Each chain is one loop here, with the same float32
-operations in the same order, so the result is the one NumPy gives, bit for bit (their
-references: ``tests/test_kernels_field.py``). OpenCV keeps what it does in one vectorised
-call (the resampling, the blurs, the patch sums).
+temporary of the 480 x 270 working grid; where a field carries each pixel (the landing
+test, the maps the inverse flow and the backward map sample at) was a broadcast sum and
+four comparisons. Each is one loop here, with the same float32 operations in the same
+order, so the result is the one NumPy gives, bit for bit (their references:
+``tests/test_kernels_field.py``). OpenCV keeps what it does in one vectorised call (the
+resampling, the blurs, the patch sums, the pick of the cheaper patch).
 
-Compiled as :mod:`unjello.kernels` is (``njit``, ``cache=True``).
+Compiled as :mod:`unjello.kernels` is (:func:`unjello.jit.compiled`).
 """
 
 from __future__ import annotations
