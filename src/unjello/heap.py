@@ -5,6 +5,8 @@ large arrays every frame (planes, maps, fields) in a changing order, and the fre
 between live ones add up: at 4K the process held about 100 MB more than it used (peak
 resident 2227 against 2123 MiB with the trim every ten pictures, the simulated 3840 x 2160
 speed clip, 60 frames). ``malloc_trim`` returns them. Elsewhere than glibc it is a no-op.
+Called as pictures are written: by a whole run (:mod:`unjello.pipeline`) and by each
+segment of a long clip on a cluster (:mod:`unjello.segments`).
 """
 
 from __future__ import annotations

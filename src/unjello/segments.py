@@ -35,6 +35,7 @@ from .batch import executor
 from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
 from .errors import InputError, SettingsError, UnjelloError
+from .heap import trim
 from .io.codecs import check_output
 from .io.remux import FrameIndex, frame_index, join_segments, read_stretch
 from .io.sink import check_paths, remove, replace, temp_path
@@ -176,6 +177,7 @@ def run_segment(job: _Job) -> list[FrameMotion]:
                     if pts in wanted:
                         writer.write(planes, pts)
                         motions.append(dataclasses.replace(_light(fm), index=wanted[pts]))
+                        trim(len(motions))  # the freed memory back, as a whole run does
 
             for planes, pts in frames:
                 held.append(pts)
