@@ -45,8 +45,8 @@ def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight
     """
     out = np.empty_like(num)
     has = prior is not None
-    pr = prior if prior is not None else np.zeros((1, 1, 2), np.float32)
-    _fill_from_weights(resid, ok, num, weight, pr, has, np.float32(prior_below), out)
+    _fill_from_weights(resid, ok, num, weight, prior if has else np.zeros((1, 1, 2), np.float32),
+                       has, np.float32(prior_below), out)
     return out
 
 
