@@ -79,13 +79,15 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
              np.array([u.real, u.imag, scale[0], scale[1], drift0.real, drift0.imag]),
              float(row_time), int(iterations), float(truncate))
 
-    work = np.empty((2, 3))
+    # Points sorted by row: the scanline a point is imaged on does not depend on its
+    # column, so the points of one row share it.
+    rows = np.argsort(fixed[6][:, 1], kind="stable")
 
     def score(drifts: np.ndarray) -> np.ndarray:
         drifts = np.ascontiguousarray(drifts, np.float64)
         out = np.empty((len(drifts), len(fixed[6])))
-        _drift_costs(*fixed, drifts, np.argsort(drifts[:, 1], kind="stable"), *track, out,
-                     work)
+        _drift_costs(*fixed, rows, drifts, np.argsort(drifts[:, 1], kind="stable"), *track,
+                     out, np.empty((len(drifts), 2, 3)))
         return out
 
     return score
@@ -131,24 +133,30 @@ def _sample(img: np.ndarray, x: float, y: float) -> float:
 
 @compiled
 def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, off_b: float,
-                 count: int, pts: np.ndarray, drifts: np.ndarray, order: np.ndarray,
-                 times: np.ndarray, px: np.ndarray, py: np.ndarray, k: np.ndarray,
-                 row_time: float, iterations: int, truncate: float, out: np.ndarray,
-                 work: np.ndarray) -> None:
+                 count: int, pts: np.ndarray, rows: np.ndarray, drifts: np.ndarray,
+                 order: np.ndarray, times: np.ndarray, px: np.ndarray, py: np.ndarray,
+                 k: np.ndarray, row_time: float, iterations: int, truncate: float,
+                 out: np.ndarray, work: np.ndarray) -> None:
     h, w = a.shape
-    n = pts.shape[0]
-    # Per neighbour (``work``'s rows): the time from the point's own to where it is imaged
-    # there, and the track's move till then. Without rotation its scanline depends on the
-    # drift's vertical part alone: solved once per distinct one (``order`` sorts the
-    # drifts by it).
-    for i in range(n):
+    # Per drift and neighbour (``work``): the time from the point's own to where it is
+    # imaged there, and the track's move till then. Without rotation its scanline depends
+    # on the point's row and the drift's vertical part alone: solved once per row
+    # (``rows`` visits the points row by row) and distinct vertical part (``order`` sorts
+    # the drifts by it).
+    for r in range(rows.size):
+        i = rows[r]
         x, y = pts[i, 0], pts[i, 1]
-        t_s = row_time * y
-        sx, sy = _track(times, px, py, t_s, k)
-        for e in range(order.size):
-            d = order[e]
-            vx, vy = drifts[d, 0], drifts[d, 1]
-            if e == 0 or vy != drifts[order[e - 1], 1]:
+        if r == 0 or y != pts[rows[r - 1], 1]:
+            t_s = row_time * y
+            sx, sy = _track(times, px, py, t_s, k)
+            for e in range(order.size):
+                d = order[e]
+                vy = drifts[d, 1]
+                if e > 0 and vy == drifts[order[e - 1], 1]:
+                    for o in range(count):
+                        for c in range(3):
+                            work[d, o, c] = work[order[e - 1], o, c]
+                    continue
                 for o in range(count):
                     off = off_a if o == 0 else off_b
                     t = off + row_time * y
@@ -156,13 +164,15 @@ def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, of
                         t = off + row_time * (y + _track(times, px, py, t, k)[1] - sy
                                               + vy * (t - t_s))
                     cx, cy = _track(times, px, py, t, k)
-                    work[o, 0] = t - t_s
-                    work[o, 1] = cx - sx
-                    work[o, 2] = cy - sy
+                    work[d, o, 0] = t - t_s
+                    work[d, o, 1] = cx - sx
+                    work[d, o, 2] = cy - sy
+        for d in range(drifts.shape[0]):
+            vx, vy = drifts[d, 0], drifts[d, 1]
             total, seen = 0.0, 0
             for o in range(count):
-                qx = x + work[o, 1] + vx * work[o, 0]
-                qy = y + work[o, 2] + vy * work[o, 0]
+                qx = x + work[d, o, 1] + vx * work[d, o, 0]
+                qy = y + work[d, o, 2] + vy * work[d, o, 0]
                 if 0.0 <= qx <= w - 1 and 0.0 <= qy <= h - 1:
                     img = a if o == 0 else b
                     total += min(math.fabs(_sample(img, qx, qy) - own[i]), truncate)
