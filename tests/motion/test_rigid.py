@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from skimage import data
 
+import unjello.motion.spin as spin_module
 from unjello.motion.rigid import (
     TRUNCATE,
     PathTrack,
@@ -75,6 +76,37 @@ def test_a_pole_is_no_spinner(poles):
         field, g[k], [(g[k - 1], -1.0), (g[k + 1], 1.0)], pole, track, 0.5, 1.0)
     assert spins and all(s.omega == 0.0 for s in spins) and not candidates
     assert len(fronts) == len(spins) and weight[pole].mean() > 0.8
+
+
+def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, monkeypatch):
+    """With one neighbour (a pair, a clip's first frame) a drift is searched only along
+    the motion around the object (parallax): the pole's own 24 px a frame, none across;
+    an object touching a side is left as it was."""
+    motion, sim, g = poles
+    k = 2
+    pole = _biggest_pole(sim[k].layer)
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    spin = fit_drift(g[k], [(g[k - 1], -1.0)], pole, track, 0.5, 1.0,
+                     along=np.array([-1.0, 0.0]))
+    assert spin is not None and spin.gain > 3
+    assert spin.drift == pytest.approx([(NEAR - 1) * 0.25 * W, 0.0], abs=1.0)
+    field = np.zeros((H, W, 2), np.float32)
+    _, spins, weight, candidates, _ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], pole,
+                                                     track, 0.5, 1.0, rotations=False)
+    assert len(spins) == 1 and spins[0].drift[1] == 0.0 and not candidates
+    assert weight[pole].mean() > 0.8
+    leaving = sim[k].layer[:, -1]
+    at_side = sim[k].layer == leaving[leaving > 0][0]  # a pole leaving at the right
+    _, spins, *_ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], at_side, track, 0.5, 1.0,
+                                 rotations=False)
+    assert not spins
+    monkeypatch.setattr(spin_module, "_at_side", lambda region: False)
+    _, spins, *_ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], at_side, track, 0.5, 1.0,
+                                 rotations=False)
+    assert spins  # what the rule holds back
 
 
 def test_a_long_thin_object_is_fitted_no_rotation(poles, monkeypatch):

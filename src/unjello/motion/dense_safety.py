@@ -197,16 +197,17 @@ class SafeField:
                             ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...]]:
         """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
 
-        With a neighbour on each side, or one and last frame's rotations to check against
-        (one side alone tells a rotation's aliases apart too poorly), and only if the map
-        then folds nowhere else. Returns the field, its folds
+        Rotations with a neighbour on each side, or one and last frame's rotations to
+        check against (one side alone tells a rotation's aliases apart too poorly); with
+        one side alone (a pair, a clip's ends) drifts along the motion around the object
+        (a near pole); and only if the map then folds nowhere else. Returns the field, its folds
         (along the spinning objects' edges, occlusion boundaries, and along the
         ``followed`` objects, not counted), the share
         spun, a note and the rotations' layers in front of the field.
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
                   if abs(f.index - fr.index) == 1]
-        if not regions.any() or not others or (len(others) < 2 and not self._spins):
+        if not regions.any() or not others:
             self._spins = []
             return field, folds, 0.0, "", ()
 
@@ -215,7 +216,8 @@ class SafeField:
         hints = [(c + track(np.array([t_ref]))[0] - track(np.array([t - fr.start]))[0], om)
                  for c, om, t in self._spins]
         spinning, spins, weight, fitted, fronts = keep_spinning(
-            field, fr.image, others, regions, track, t_ref, self.timing.readout, hints=hints)
+            field, fr.image, others, regions, track, t_ref, self.timing.readout, hints=hints,
+            rotations=len(others) >= 2 or bool(self._spins))
         self._spins = [(s.centre, s.omega, fr.start + t_ref) for s in fitted]
         if not spins:
             return field, folds, 0.0, "", ()

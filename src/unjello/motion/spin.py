@@ -68,6 +68,10 @@ MAX_OBJECTS = 6
 #: frame's edge 1.9); poles the flow lost 4.5-8.3, where rotations of a turn a frame were
 #: fitted and one was used (``docs/measurements.md``).
 MAX_ELONGATION = 3.0
+#: Seen from one side only, a drift is taken only where it points the way the motion
+#: around the object does (the cosine of their angle at least this): a nearer object in
+#: a pan (parallax). One side alone lets a flat region match a drift backwards.
+ALONG = 0.7
 
 
 def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
@@ -307,34 +311,46 @@ def elongation(region: np.ndarray) -> float:
     return float(np.sqrt(var[1] / max(var[0], 1e-9)))
 
 
+def _along(drift: np.ndarray, behind: np.ndarray) -> bool:
+    """Whether ``drift`` points the way ``behind`` does, within :data:`ALONG` (parallax)."""
+    norm = float(np.hypot(*drift) * np.hypot(*behind))
+    return norm > 0 and float(np.dot(drift, behind)) >= ALONG * norm
+
+
+def _at_side(region: np.ndarray) -> bool:
+    """Whether ``region`` touches the frame's left or right side."""
+    return bool(region[:, 0].any() or region[:, -1].any())
+
+
 def keep_spinning(field: np.ndarray, image: np.ndarray,
                   others: Sequence[tuple[np.ndarray, float]], seeds: np.ndarray,
                   track: Track, t_ref: float, readout: float, *,
                   hints: Sequence[tuple[np.ndarray, float]] = (), min_gain: float = 3.0,
-                  steady_gain: float = 1.6, min_area: int = 400
+                  steady_gain: float = 1.6, min_area: int = 400, rotations: bool = True
                   ) -> tuple[np.ndarray, list[Spin], np.ndarray, list[Spin],
                              tuple[np.ndarray, ...]]:
     """Give each failed object that a drift or a rotation explains that motion's correction.
 
     Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px, the
-    :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`,
-    with a neighbour on each side): one that it explains ``min_gain`` times better than
-    the motion around it, and moves a pixel or more a frame, is an object moving on its
-    own (a near pole the flow could not follow) and takes that drift as a rotation would
-    (below). The others are fitted a rotation (:func:`fit_spin`, from the ``hints``
-    first, then by a full search; then again on the pixels its rotation explains,
-    leaving out the background seen through the object). It is used when it matches the
-    neighbours at least ``min_gain`` times better than the motion around it -- or
-    ``steady_gain`` times when the previous frame found the same rotation (``hints``:
-    within 15 % and a quarter of the radius) -- and turns its rim by a pixel or more per
-    frame. Its correction (:func:`spin_field`) then replaces ``field`` with the weight of
-    :func:`spin_support` -- or over its whole hull, where the rotation explains
+    :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`;
+    seen from one side only, along the motion around it and not where it touches the frame's
+    left or right side): one that it explains ``min_gain`` times better than the motion
+    around it, and moves a pixel or more a frame, is an object moving on its own (a near
+    pole the flow could not follow) and takes that drift as a rotation would (below).
+    Without ``rotations`` that is all; otherwise the others are fitted a rotation
+    (:func:`fit_spin`, from the ``hints`` first, then by a full search; then again on the
+    pixels its rotation explains, leaving out the background seen through the object). It is
+    used when it matches the neighbours at least ``min_gain`` times better than the motion
+    around it -- or ``steady_gain`` times when the previous frame found the same rotation
+    (``hints``: within 15 % and a quarter of the radius) -- and turns its rim by a pixel or
+    more per frame. Its correction (:func:`spin_field`) then replaces ``field`` with the
+    weight of :func:`spin_support` -- or over its whole hull, where the rotation explains
     :data:`WHOLE` of it (a spinner: what it leaves out is its rim and seams, where a cut
     shows); elsewhere ``field`` (the surroundings' motion, from
-    :func:`unjello.motion.safety.keep_whole`) stays. And since a turned-back arm lands
-    on what the frame shows as background, which a forward field cannot show it over,
-    the rotation's source (:func:`spin_source`) and the weight come back as a layer in
-    front of the field.
+    :func:`unjello.motion.safety.keep_whole`) stays. And since a turned-back arm lands on
+    what the frame shows as background, which a forward field cannot show it over, the
+    rotation's source (:func:`spin_source`) and the weight come back as a layer in front of
+    the field.
 
     Returns
     -------
@@ -350,6 +366,7 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         <unjello.trajectory.FrameMotion>`): :func:`spin_source` and the weight.
     """
     labels = spin_regions(seeds, image, others, track, t_ref, readout)
+    behind = (at(track, np.array([t_ref + 0.5])) - at(track, np.array([t_ref - 0.5])))[0]
     out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
     areas = np.bincount(labels.ravel())[1:]
@@ -367,18 +384,24 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
             return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
 
         # An object moving on its own (a near pole) is no spinner: a drift that explains
-        # it, seen from both sides, is taken before any rotation is searched.
-        spin = fit_drift(image, others, region, track, t_ref, readout) if len(
-            others) >= 2 else None
+        # it is taken before any rotation is searched.
+        # Seen from one side, only along the motion around it (parallax: :data:`ALONG`),
+        # and not at a side (what it covers beyond the edge, one side cannot tell).
+        along = None if len(others) >= 2 else behind
+        spin = None if along is not None and _at_side(region) else fit_drift(
+            image, others, region, track, t_ref, readout, along=along)
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
             if support.sum() >= min_area / 2:
-                spin = fit_drift(image, others, support, track, t_ref, readout) or spin
+                spin = fit_drift(image, others, support, track, t_ref, readout,
+                                 along=along) or spin
         drifting = spin is not None and spin.gain >= min_gain and bool(
-            np.hypot(*spin.drift) >= 1.0)
+            np.hypot(*spin.drift) >= 1.0) and (len(others) >= 2 or _along(spin.drift, behind))
         if not drifting and elongation(region) > MAX_ELONGATION:
             continue  # a long thin object (a pole, a rail) is no swept disc: no rotation
+        if not drifting and not rotations:
+            continue
         for search in (False, True) if not drifting else ():
             # From last frame's rotation, else a full search.
             if not search and not hints:
