@@ -79,9 +79,9 @@ def test_a_pole_is_no_spinner(poles):
 
 
 def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, monkeypatch):
-    """With one neighbour (a pair, a clip's first frame) a drift is searched only along
-    the motion around the object (parallax): the pole's own 24 px a frame, none across;
-    an object touching a side is left as it was."""
+    """With one neighbour (a pair, a clip's first frame) the pole is fitted its drift as
+    well; only a drift along the motion around it is taken (parallax), and an object
+    touching the frame's left or right side is left as it was."""
     motion, sim, g = poles
     k = 2
     pole = _biggest_pole(sim[k].layer)
@@ -89,24 +89,31 @@ def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, 
     def track(t):
         return motion(np.asarray(t, float) + k)
 
-    spin = fit_drift(g[k], [(g[k - 1], -1.0)], pole, track, 0.5, 1.0,
-                     along=np.array([-1.0, 0.0]))
-    assert spin is not None and spin.gain > 3
-    assert spin.drift == pytest.approx([(NEAR - 1) * 0.25 * W, 0.0], abs=1.0)
+    one = [(g[k - 1], -1.0)]
     field = np.zeros((H, W, 2), np.float32)
-    _, spins, weight, candidates, _ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], pole,
-                                                     track, 0.5, 1.0, rotations=False)
-    assert len(spins) == 1 and spins[0].drift[1] == 0.0 and not candidates
-    assert weight[pole].mean() > 0.8
+    _, spins, weight, candidates, _ = keep_spinning(field, g[k], one, pole, track, 0.5, 1.0,
+                                                     rotations=False)
+    assert len(spins) == 1 and not candidates and weight[pole].mean() > 0.8
+    assert spins[0].drift[0] == pytest.approx((NEAR - 1) * 0.25 * W, abs=1.0)
+    # The same fit pointing backwards (the pan moves the scene to the left): refused.
+    back = Spin(spins[0].centre, 0.0, spins[0].cost, spins[0].still_cost,
+                drift=-spins[0].drift)
+    monkeypatch.setattr(spin_module, "fit_drift", lambda *a, **kw: back)
+    assert not keep_spinning(field, g[k], one, pole, track, 0.5, 1.0, rotations=False)[1]
+    assert keep_spinning(field, g[k], [*one, (g[k + 1], 1.0)], pole, track, 0.5, 1.0)[1]
+    monkeypatch.undo()
+    k = 3
+
+    def later(t):
+        return motion(np.asarray(t, float) + k)
+
     leaving = sim[k].layer[:, -1]
     at_side = sim[k].layer == leaving[leaving > 0][0]  # a pole leaving at the right
-    _, spins, *_ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], at_side, track, 0.5, 1.0,
-                                 rotations=False)
-    assert not spins
+    one = [(g[k - 1], -1.0)]
+    assert not keep_spinning(field, g[k], one, at_side, later, 0.5, 1.0, rotations=False)[1]
     monkeypatch.setattr(spin_module, "_at_side", lambda region: False)
-    _, spins, *_ = keep_spinning(field, g[k], [(g[k - 1], -1.0)], at_side, track, 0.5, 1.0,
-                                 rotations=False)
-    assert spins  # what the rule holds back
+    # What the rule holds back:
+    assert keep_spinning(field, g[k], one, at_side, later, 0.5, 1.0, rotations=False)[1]
 
 
 def test_a_long_thin_object_is_fitted_no_rotation(poles, monkeypatch):

@@ -350,7 +350,7 @@ STEPS = np.array([(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
 def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
               region: np.ndarray, track: Track, t_ref: float, readout: float, *,
               max_drift: float | None = None, coarse_radius: float = 16.0,
-              min_gain: float = 1.15, along: np.ndarray | None = None) -> Spin | None:
+              min_gain: float = 1.15) -> Spin | None:
     """Fit ``region`` a velocity of its own on top of its surroundings': a near object.
 
     A pole passing close in front of the camera moves faster than the scene behind it
@@ -361,8 +361,7 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     sixth of the width) is scored on the shrunk copy (:func:`prepare`), as
     :func:`~unjello.motion.spin.fit_spin` scores rotations -- at most :data:`GRID_SIDE` a
     side, further apart than its pixels on a copy blurred to match; the best two are
-    refined at full size by a shrinking pattern search. With ``along`` (a direction in
-    the picture), only drifts along it are searched.
+    refined at full size by a shrinking pattern search.
 
     Returns
     -------
@@ -384,30 +383,20 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
             return cv2.GaussianBlur(im, (0, 0), step / 2)
 
         small, others_s = blur(small), [(blur(o), off) for o, off in others_s]
-    steps = STEPS
-    if along is None:
-        gx, gy = np.meshgrid(
-            np.arange(-np.ceil(reach[0] / step), np.ceil(reach[0] / step) + 1),
-            np.arange(-np.ceil(reach[1] / step), np.ceil(reach[1] / step) + 1))
-        grid = np.stack([gx.ravel(), gy.ravel()], axis=1) * step
-    else:  # a line of drifts through none, each ``step`` shrunk px from the next
-        unit = np.asarray(along, np.float64) * prep.scale
-        unit /= np.hypot(*unit)
-        k = np.ceil(np.hypot(*(reach * unit)) / step)
-        grid = np.arange(-k, k + 1)[:, None] * step * unit[None]
-        full = unit / prep.scale
-        steps = np.stack([full, -full]) / np.hypot(*full)
-    speed = np.hypot(*grid.T)
+    gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0] / step), np.ceil(reach[0] / step) + 1),
+                         np.arange(-np.ceil(reach[1] / step), np.ceil(reach[1] / step) + 1))
+    gx, gy = gx * step, gy * step
+    grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     centre = np.repeat((prep.centroid * prep.scale)[None], len(grid), 0)
     spts = prep.spts[::max(1, len(prep.spts) // 120)]
     # A flat object moving along itself looks the same (the aperture problem): of drifts
     # that match alike, the slowest wins (DRIFT_PENALTY of the cost at the reach).
     raw = costs(small, others_s, spts, centre, np.zeros(len(grid)), prep.strack,
                 t_ref, readout / prep.small.shape[0], iterations=2, drift=grid).mean(axis=1)
-    if raw.min() * min_gain > raw[np.argmin(speed)]:
+    if raw.min() * min_gain > raw[np.flatnonzero((gx == 0) & (gy == 0))[0]]:
         return None  # no drift explains it much better than its surroundings' motion
     far = float(np.hypot(*reach))
-    scores = raw * (1 + DRIFT_PENALTY * speed / far)
+    scores = raw * (1 + DRIFT_PENALTY * np.hypot(gx, gy).ravel() / far)
 
     fine = prep.fine[::max(1, len(prep.fine) // 500)]
 
@@ -429,7 +418,7 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         while move >= 0.25:
             sizes.append(move)
             move /= 2
-        results.append(pattern_search(cost, v, float(cost(v[None])[0]), steps, sizes))
+        results.append(pattern_search(cost, v, float(cost(v[None])[0]), STEPS, sizes))
     v = min(results, key=lambda r: r[0])[1]
     final = cost(np.stack([v, np.zeros(2)]), 0.0)
     return Spin(centre=prep.centroid, omega=0.0, cost=float(final[0]),

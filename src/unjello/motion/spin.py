@@ -385,17 +385,15 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
 
         # An object moving on its own (a near pole) is no spinner: a drift that explains
         # it is taken before any rotation is searched.
-        # Seen from one side, only along the motion around it (parallax: :data:`ALONG`),
-        # and not at a side (what it covers beyond the edge, one side cannot tell).
-        along = None if len(others) >= 2 else behind
-        spin = None if along is not None and _at_side(region) else fit_drift(
-            image, others, region, track, t_ref, readout, along=along)
+        # Seen from one side, not at the frame's side (what it covers beyond the edge,
+        # one side cannot tell), and only along the motion around it (:data:`ALONG`).
+        spin = None if len(others) < 2 and _at_side(region) else fit_drift(
+            image, others, region, track, t_ref, readout)
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
             if support.sum() >= min_area / 2:
-                spin = fit_drift(image, others, support, track, t_ref, readout,
-                                 along=along) or spin
+                spin = fit_drift(image, others, support, track, t_ref, readout) or spin
         drifting = spin is not None and spin.gain >= min_gain and bool(
             np.hypot(*spin.drift) >= 1.0) and (len(others) >= 2 or _along(spin.drift, behind))
         if not drifting and elongation(region) > MAX_ELONGATION:
