@@ -48,8 +48,15 @@ def test_uncovered_finds_what_the_pole_covered_and_where_the_neighbour_saw_it():
     assert {28, 29} <= cols <= set(range(26, 32))  # output 27-30, a pixel of blur either side
     assert np.all(k == 0)
     assert np.allclose(delta, [8.0, 0.0], atol=0.05)  # background's 3 px and the flow's 5
-    # No neighbour for the rows read before the reference (the next frame saw them):
-    assert uncovered(maps, field, [flow], [-1], reference_row=float(H)) is None
+    # The rows read before the reference: from the next frame, where there is one ...
+    nxt = -flow
+    both = uncovered(maps, field, [flow, nxt], [-1, 1], reference_row=float(H))
+    assert both is not None and np.all(both[2] == 1)
+    # ... and from the previous frame where it is the only one (a pair's second frame):
+    # the object has moved on there too.
+    alone = uncovered(maps, field, [flow], [-1], reference_row=float(H))
+    assert alone is not None and np.all(alone[2] == 0)
+    assert np.array_equal(alone[1], found[1])
     # Without parallax nothing is uncovered.
     flat = np.full((H, W, 2), 3.0, np.float32)
     flat[..., 1] = 0.0

@@ -49,7 +49,8 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     not forward motion). Where that displacement leads to a source that moves
     otherwise (the object, in this frame), a neighbour saw the background: it is read
     there along that pixel's flow -- for a row read after the reference, in the
-    previous frame, which the object had not yet covered; before it, in the next one.
+    previous frame, which the object had not yet covered; before it, in the next one;
+    with one neighbour (a pair, a clip's ends), in it, where the object has moved on too.
     Across the row's motion a flat object's flow is unsure (the aperture): only the
     part along it counts. :func:`confirmed` then checks each pixel on the picture.
 
@@ -131,7 +132,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     k = np.full(ys.size, -1)
     delta = np.zeros((ys.size, 2), np.float32)
     for i, offset in enumerate(offsets):
-        mine = np.flatnonzero(late if offset < 0 else ~late)
+        # With one neighbour (a pair, a clip's ends) it is the only one to read: the object
+        # has moved on there too (confirmed() checks it on the picture).
+        mine = np.flatnonzero(late if offset < 0 else ~late) if len(offsets) > 1 else \
+            np.arange(ys.size)
         if not mine.size:
             continue
         n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]], my[qy[mine], qx[mine]])

@@ -105,11 +105,13 @@ def test_a_near_pole_in_a_pair_keeps_its_own_motion():
     """Issue 38: a pair has one neighbour, and a near pole the flow lost kept the motion
     around it (a pan of a quarter of the width a frame, 320x180, readout 1.0, poles 1.3x
     as near): it came out bent. Fitted its own drift along the motion around it, the
-    interior 20.54 -> 24.03 dB, the frame 20.24 -> 23.30 (benchmarks/edges.py)."""
+    interior 20.54 -> 24.03 dB, the frame 20.24 -> 23.30; and the background it uncovered
+    read from the one neighbour (the pole had left a slanted copy of itself there): 26.66
+    / 25.40 (benchmarks/edges.py)."""
     from benchmarks.edges import run
 
     pair = run("astronaut", 0.25, 1.0, 2, (320, 180), near=1.3)
-    assert pair["out_interior"] > 23.0 and pair["out_frame"] > 22.5, pair
+    assert pair["out_interior"] > 26.0 and pair["out_frame"] > 24.8, pair
 
 
 def test_background_a_near_pole_uncovered_comes_from_the_neighbour_that_saw_it(monkeypatch):
