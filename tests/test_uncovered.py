@@ -52,11 +52,12 @@ def test_uncovered_finds_what_the_pole_covered_and_where_the_neighbour_saw_it():
     nxt = -flow
     both = uncovered(maps, field, [flow, nxt], [-1, 1], reference_row=float(H))
     assert both is not None and np.all(both[2] == 1)
-    # ... and from the previous frame where it is the only one (a pair's second frame):
-    # the object has moved on there too.
-    alone = uncovered(maps, field, [flow], [-1], reference_row=float(H))
+    # ... and from the previous frame where it is the only one (a pair's second frame)
+    # and the frame shows an object moving on its own: it has moved on there too.
+    alone = uncovered(maps, field, [flow], [-1], reference_row=float(H), lone=True)
     assert alone is not None and np.all(alone[2] == 0)
     assert np.array_equal(alone[1], found[1])
+    assert uncovered(maps, field, [flow], [-1], reference_row=float(H)) is None  # not asked
     # Without parallax nothing is uncovered.
     flat = np.full((H, W, 2), 3.0, np.float32)
     flat[..., 1] = 0.0

@@ -35,17 +35,22 @@ class NeighbourFill:
         This frame's planes (top-bottom): given with ``field``, nearer objects leaving
         the frame at a side are carried beyond it by their own motion
         (:func:`objects_beyond`).
+    lone : bool
+        Whether the frame shows an object moving on its own in front (a fitted drift or
+        rotation): a lone neighbour is then read for all it uncovered (:func:`uncovered`).
     """
 
     def __init__(self, maps: tuple[np.ndarray, np.ndarray],
                  neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
                  timing: SensorTiming, field: np.ndarray | None = None,
-                 coarse: bool = True, own: list[np.ndarray] | None = None) -> None:
+                 coarse: bool = True, own: list[np.ndarray] | None = None,
+                 lone: bool = False) -> None:
         self.maps, self.offsets, self.timing, self.coarse = maps, offsets, timing, coarse
         self.planes = [planes for planes, _ in neighbours]
         self.flows = [flow for _, flow in neighbours]
         grid = maps[0].shape
-        self.behind = (uncovered(maps, field, self.flows, offsets, timing.reference_row(grid[0]))
+        self.behind = (uncovered(maps, field, self.flows, offsets,
+                                 timing.reference_row(grid[0]), lone)
                        if field is not None else None)
         self._parts: dict[tuple[int, int], list] = {}
         self.own = own

@@ -34,7 +34,8 @@ _STEPS = np.array([1, 2, 3, 4, 6, 8, REACH])
 
 
 def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: list[np.ndarray],
-              offsets: list[int], reference_row: float) -> tuple[np.ndarray, ...] | None:
+              offsets: list[int], reference_row: float, lone: bool = False
+              ) -> tuple[np.ndarray, ...] | None:
     """Output pixels showing background that a nearer object covered in this frame.
 
     A near object (a pole passing in front of a pan) moves across its background:
@@ -50,7 +51,8 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     otherwise (the object, in this frame), a neighbour saw the background: it is read
     there along that pixel's flow -- for a row read after the reference, in the
     previous frame, which the object had not yet covered; before it, in the next one;
-    with one neighbour (a pair, a clip's ends), in it, where the object has moved on too.
+    with ``lone``, a lone neighbour (a pair, a clip's ends) for every row, where the
+    object has moved on too.
     Across the row's motion a flat object's flow is unsure (the aperture): only the
     part along it counts. :func:`confirmed` then checks each pixel on the picture.
 
@@ -66,6 +68,9 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
         Each flow's neighbour (-1: the previous frame, 1: the next).
     reference_row : float
         The reference scanline (pixels of the grid, top-bottom).
+    lone : bool
+        Whether a lone neighbour is read for every row (the frame shows an object moving
+        on its own; without one, a fast pan's flow errors would be taken for it).
 
     Returns
     -------
@@ -132,10 +137,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     k = np.full(ys.size, -1)
     delta = np.zeros((ys.size, 2), np.float32)
     for i, offset in enumerate(offsets):
-        # With one neighbour (a pair, a clip's ends) it is the only one to read: the object
-        # has moved on there too (confirmed() checks it on the picture).
-        mine = np.flatnonzero(late if offset < 0 else ~late) if len(offsets) > 1 else \
-            np.arange(ys.size)
+        # A lone neighbour (a pair, a clip's ends) is the only one to read: the object has
+        # moved on there too (confirmed() checks it on the picture).
+        mine = (np.arange(ys.size) if lone and len(offsets) == 1
+                else np.flatnonzero(late if offset < 0 else ~late))
         if not mine.size:
             continue
         n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]], my[qy[mine], qx[mine]])

@@ -514,7 +514,8 @@ class PictureWarper:
                     [k for k, _, _ in have], self.timing,
                     grid_field(motion.field, maps[0].shape, (h, w))
                     if plain and motion.field is not None else None,
-                    coarse=self.undistort is None, own=[to_top_bottom(p, d) for p in planes])
+                    coarse=self.undistort is None, own=[to_top_bottom(p, d) for p in planes],
+                    lone=bool(motion.front))
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
