@@ -86,8 +86,11 @@ def drift_costs(own: np.ndarray, others: list[tuple[np.ndarray, float]], pts: np
     def score(drifts: np.ndarray) -> np.ndarray:
         drifts = np.ascontiguousarray(drifts, np.float64)
         out = np.empty((len(drifts), len(fixed[6])))
-        _drift_costs(*fixed, rows, drifts, np.argsort(drifts[:, 1], kind="stable"), *track,
-                     out, np.empty((len(drifts), 2, 3)))
+        # Without rotation a point's scanline depends on the drift's vertical part alone:
+        # solved once per distinct one (``vys``; ``slot``: each drift's).
+        vys, slot = np.unique(drifts[:, 1], return_inverse=True)
+        _drift_costs(*fixed, rows, drifts, vys, slot.ravel(), *track, out,
+                     np.empty((len(vys), 2, 3)))
         return out
 
     return score
@@ -134,45 +137,36 @@ def _sample(img: np.ndarray, x: float, y: float) -> float:
 @compiled
 def _drift_costs(own: np.ndarray, a: np.ndarray, off_a: float, b: np.ndarray, off_b: float,
                  count: int, pts: np.ndarray, rows: np.ndarray, drifts: np.ndarray,
-                 order: np.ndarray, times: np.ndarray, px: np.ndarray, py: np.ndarray,
-                 k: np.ndarray, row_time: float, iterations: int, truncate: float,
-                 out: np.ndarray, work: np.ndarray) -> None:
+                 vys: np.ndarray, slot: np.ndarray, times: np.ndarray, px: np.ndarray,
+                 py: np.ndarray, k: np.ndarray, row_time: float, iterations: int,
+                 truncate: float, out: np.ndarray, work: np.ndarray) -> None:
     h, w = a.shape
-    # Per drift and neighbour (``work``): the time from the point's own to where it is
-    # imaged there, and the track's move till then. Without rotation its scanline depends
-    # on the point's row and the drift's vertical part alone: solved once per row
-    # (``rows`` visits the points row by row) and distinct vertical part (``order`` sorts
-    # the drifts by it).
+    # Per distinct vertical drift and neighbour (``work``): the time from the point's own to
+    # where it is imaged there, and the track's move till then -- the same for every point
+    # of a row (``rows`` visits them row by row).
     for r in range(rows.size):
         i = rows[r]
         x, y = pts[i, 0], pts[i, 1]
         if r == 0 or y != pts[rows[r - 1], 1]:
             t_s = row_time * y
             sx, sy = _track(times, px, py, t_s, k)
-            for e in range(order.size):
-                d = order[e]
-                vy = drifts[d, 1]
-                if e > 0 and vy == drifts[order[e - 1], 1]:
-                    for o in range(count):
-                        for c in range(3):
-                            work[d, o, c] = work[order[e - 1], o, c]
-                    continue
+            for v in range(vys.size):
                 for o in range(count):
                     off = off_a if o == 0 else off_b
                     t = off + row_time * y
                     for _ in range(iterations - 1):
                         t = off + row_time * (y + _track(times, px, py, t, k)[1] - sy
-                                              + vy * (t - t_s))
+                                              + vys[v] * (t - t_s))
                     cx, cy = _track(times, px, py, t, k)
-                    work[d, o, 0] = t - t_s
-                    work[d, o, 1] = cx - sx
-                    work[d, o, 2] = cy - sy
+                    work[v, o, 0] = t - t_s
+                    work[v, o, 1] = cx - sx
+                    work[v, o, 2] = cy - sy
         for d in range(drifts.shape[0]):
-            vx, vy = drifts[d, 0], drifts[d, 1]
+            vx, vy, v = drifts[d, 0], drifts[d, 1], slot[d]
             total, seen = 0.0, 0
             for o in range(count):
-                qx = x + work[d, o, 1] + vx * work[d, o, 0]
-                qy = y + work[d, o, 2] + vy * work[d, o, 0]
+                qx = x + work[v, o, 1] + vx * work[v, o, 0]
+                qy = y + work[v, o, 2] + vy * work[v, o, 0]
                 if 0.0 <= qx <= w - 1 and 0.0 <= qy <= h - 1:
                     img = a if o == 0 else b
                     total += min(math.fabs(_sample(img, qx, qy) - own[i]), truncate)
