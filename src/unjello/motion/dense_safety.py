@@ -199,11 +199,11 @@ class SafeField:
 
         Rotations with a neighbour on each side, or one and last frame's rotations to
         check against (one side alone tells a rotation's aliases apart too poorly); with
-        one side alone (a pair, a clip's ends) drifts along the motion around the object
-        (a near pole); and only if the map then folds nowhere else. Returns the field, its folds
-        (along the spinning objects' edges, occlusion boundaries, and along the
-        ``followed`` objects, not counted), the share
-        spun, a note and the rotations' layers in front of the field.
+        one side alone (a pair, a clip's ends), drifts along the motion around the object
+        (a near pole); and only if the map then folds nowhere else. Returns the field, its
+        folds (along the spinning objects' edges, occlusion boundaries, and along the
+        ``followed`` objects, not counted), the share spun, a note and the rotations'
+        layers in front of the field.
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
                   if abs(f.index - fr.index) == 1]

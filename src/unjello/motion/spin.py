@@ -384,9 +384,9 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
             return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
 
         # An object moving on its own (a near pole) is no spinner: a drift that explains
-        # it is taken before any rotation is searched.
-        # Seen from one side, not at the frame's side (what it covers beyond the edge,
-        # one side cannot tell), and only along the motion around it (:data:`ALONG`).
+        # it is taken before any rotation is searched. Seen from one side, not at the
+        # frame's side (what it covers beyond the edge, one side cannot tell), and only
+        # along the motion around it (:data:`ALONG`).
         spin = None if len(others) < 2 and _at_side(region) else fit_drift(
             image, others, region, track, t_ref, readout)
         if spin is not None and steady_gain <= spin.gain < min_gain:
