@@ -104,3 +104,14 @@ def test_the_warper_carries_the_pole_beyond_the_edge_from_the_previous_frame():
         neighbours=((-1, pan["flow"]),)), {-1: [_pan(pole=False)["prev"]]})[0]
     right = slice(int(POLE[1]) + 2, W)
     assert np.abs(out[rows, right] - plain[rows, right]).mean() < 1.0
+
+
+def test_settled_objects_keep_a_pole_narrower_than_its_core():
+    """A thin pole's core band holds background beside it (half of it here, of which the
+    pole's speed carries a third onto alike texture: 68 % held); the pole is kept."""
+    pan = _pan()
+    obj = edge_objects(pan["field"], 1.0, REF)[0]
+    wide = EdgeObject(obj.side, np.concatenate([obj.rows, obj.rows]),
+                      np.concatenate([obj.cols, obj.cols - 8]), obj.velocity, obj.behind)
+    kept, = settled_objects([wide], pan["frame"], [pan["prev"]], [-1.0], (H, W))
+    assert abs(kept.velocity[0] - NEAR) <= 2.0

@@ -36,7 +36,7 @@ BAND = 8
 #: what its neighbours show (:func:`settled_objects`).
 SEARCH = 12.0
 #: Least share of an object's core pixels a neighbour must show where they are carried.
-HELD = 0.8
+HELD = 0.6
 #: Largest grey-level difference between an object's visible pixel and what a neighbour
 #: shows where the object's own motion carries a pixel beyond the edge.
 ALIKE = 10.0
