@@ -111,7 +111,14 @@ def test_settled_objects_keep_a_pole_narrower_than_its_core():
     pole's speed carries a third onto alike texture: 68 % held); the pole is kept."""
     pan = _pan()
     obj = edge_objects(pan["field"], 1.0, REF)[0]
-    wide = EdgeObject(obj.side, np.concatenate([obj.rows, obj.rows]),
-                      np.concatenate([obj.cols, obj.cols - 8]), obj.velocity, obj.behind)
+    rows, cols = np.concatenate([obj.rows, obj.rows]), np.concatenate([obj.cols, obj.cols - 8])
+    order = np.argsort(rows, kind="stable")  # rows ascending, as edge_objects gives them
+    wide = EdgeObject(obj.side, rows[order], cols[order], obj.velocity, obj.behind)
     kept, = settled_objects([wide], pan["frame"], [pan["prev"]], [-1.0], (H, W))
     assert abs(kept.velocity[0] - NEAR) <= 2.0
+    # Its core is now what the neighbour showed alike: the pole's pixels, and of the
+    # background beside it only what matched by chance.
+    pole = set(zip(obj.rows.tolist(), obj.cols.tolist(), strict=True))
+    core = set(zip(kept.rows.tolist(), kept.cols.tolist(), strict=True))
+    assert pole <= core and len(core - pole) <= obj.rows.size // 2
+    assert np.all(np.diff(kept.rows) >= 0)

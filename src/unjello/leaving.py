@@ -155,7 +155,9 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
     An object whose best share (in the neighbour where most land inside) is under
     :data:`HELD` is dropped: its velocity is not the one the pictures show; so is one that
     its background's velocity carries onto alike pixels nearly as often (by less than half
-    of :data:`HELD`): a flat region matches anywhere.
+    of :data:`HELD`): a flat region matches anywhere. A kept object's core is what that
+    neighbour showed alike: a thin pole's band holds background beside it, which
+    :func:`objects_beyond` would otherwise take for the object's look.
     """
     gh, gw = grid
     ph, pw = own.shape[:2]
@@ -167,10 +169,11 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
 
         def shares(plane: np.ndarray, vx: np.ndarray, vy: float, dt: float,
                    seen: np.ndarray = seen, obj: EdgeObject = obj
-                   ) -> tuple[np.ndarray, np.ndarray]:
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             """Return, per horizontal velocity of ``vx``, the core pixels carried inside.
 
-            And the share of them alike (0 for one carrying fewer than :data:`RUN`).
+            And the share of them alike (0 for one carrying fewer than :data:`RUN`), and
+            which are (velocity, pixel).
             """
             lx = obj.cols[None, :] + vx[:, None] * dt
             inside = (lx >= -0.5) & (lx <= gw - 0.5)
@@ -181,23 +184,26 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
                                   ).astype(np.float32).reshape(vx.size, obj.rows.size, -1)
             alike = (np.abs(there - seen[None]).max(axis=2) <= ALIKE) & inside
             held = n >= RUN
-            return np.where(held, n, 0), np.where(held, alike.sum(axis=1) / np.maximum(n, 1),
-                                                  0.0)
+            return (np.where(held, n, 0), np.where(held, alike.sum(axis=1) / np.maximum(n, 1),
+                                                   0.0), alike)
 
         best: tuple[int, float, float, float] = (0, 0.0, 0.0, 1.0)  # landed, share, dx, bg's
+        own_px = np.ones(obj.rows.size, bool)
         offsets = np.arange(-SEARCH, SEARCH + 0.25, 0.5)
         for plane, dt in zip(planes, steps, strict=True):
-            n, a = shares(plane, obj.velocity[0] + offsets, obj.velocity[1], dt)
+            n, a, alike = shares(plane, obj.velocity[0] + offsets, obj.velocity[1], dt)
             landed, top = int(n.max()), float(a.max())
             if landed >= RUN and (landed, top) > best[:2]:
-                dx = float(min(offsets[a >= top - 1e-6], key=abs))
+                pick = min(np.flatnonzero(a >= top - 1e-6), key=lambda i: abs(offsets[i]))
                 bg = shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)[1][0]
-                best = (landed, top, dx, float(bg))
+                best = (landed, top, float(offsets[pick]), float(bg))
+                own_px = alike[pick]
         # Held where carried, and not where the background's motion would carry it too
         # (a flat sky matches anywhere).
         if best[1] >= HELD and best[1] - best[3] >= HELD / 2:
             kept.append(dataclasses.replace(
-                obj, velocity=(obj.velocity[0] + best[2], obj.velocity[1])))
+                obj, velocity=(obj.velocity[0] + best[2], obj.velocity[1]),
+                rows=obj.rows[own_px], cols=obj.cols[own_px]))
     return kept
 
 
