@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from unjello.leaving import EdgeObject, edge_objects, settled_objects
+from unjello.leaving import EdgeObject, _covered, edge_objects, settled_objects
 from unjello.timing import SensorTiming
 from unjello.trajectory import FrameMotion
 from unjello.warp import PictureWarper
@@ -122,3 +122,20 @@ def test_settled_objects_keep_a_pole_narrower_than_its_core():
     core = set(zip(kept.rows.tolist(), kept.cols.tolist(), strict=True))
     assert pole <= core and len(core - pole) <= obj.rows.size // 2
     assert np.all(np.diff(kept.rows) >= 0)
+
+
+
+def test_covered_finds_the_pixels_read_where_the_neighbour_shows_the_object():
+    """The object was found in neighbour 0 at columns 40-44 of rows 10-12; of the strip's
+    other pixels, those reading neighbour 0 within a pixel of that span on their row read
+    the object (which covers there the background they look for); reading neighbour 1,
+    another row or further off, not."""
+    rows = np.repeat([10.0, 11.0, 12.0], 5)
+    taken = [(np.arange(15), 0, np.tile(np.arange(40.0, 45.0), 3), rows)]
+    #                     in span, 0.9 past, 2.5 past, other row, other neighbour
+    nx = np.array([0.0] * 15 + [42.0, 44.9, 46.5, 42.0, 42.0])
+    ny = np.array([0.0] * 15 + [11.2, 10.0, 12.0, 20.0, 11.0])
+    ks = np.array([0] * 15 + [0, 0, 0, 0, 1])
+    cand = np.arange(15, 20)
+    (i, idx), = [c for c in _covered(taken, cand, ks, nx, ny, 30) if c[0] == 0]
+    assert i == 0 and idx.tolist() == [15, 16]

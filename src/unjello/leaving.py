@@ -221,7 +221,10 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     after the reference try the previous frame first (the object, moving out, was
     further in), others the next. Where the check fails the pixel keeps its part; an object
     that takes fewer pixels than a band two grid pixels wide and :data:`RUN` rows high
-    takes none (a speck at the edge, not an object's continuation).
+    takes none (a speck at the edge, not an object's continuation). A pixel beyond that
+    side whose part reads the neighbour where it shows the object (:func:`_covered`: the
+    object, further in then, covers the background the pixel looks for) is read along
+    the object's motion instead, which lands beside the object there.
 
     Parameters
     ----------
@@ -287,7 +290,8 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
         vx, vy = obj.velocity
         s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
         s_x = gx + vx * (s_y - reference_row) * k
-        open_ = free & ((s_x > gw - 0.5) if obj.side > 0 else (s_x < -0.5))
+        beyond = (s_x > gw - 0.5) if obj.side > 0 else (s_x < -0.5)
+        open_ = free & beyond
         late = s_y >= reference_row
         taken = []
         for rank in (0, 1):  # each pixel's preferred neighbour first, then the other
@@ -321,8 +325,42 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
             free[idx] = False
             if first:
                 mark[ys[idx], xs[idx]] = i + 1
+        if first:  # and the background's pixels read where a neighbour shows it
+            for i, idx in _covered(taken, np.flatnonzero(beyond & free), ks, nx, ny, ph):
+                lx, ly = s_x[idx] + vx * steps[i], (s_y[idx] + vy * steps[i]).clip(0, gh - 1)
+                inside = (lx >= -0.5) & (lx <= gw - 0.5)
+                idx = idx[inside]
+                ks[idx], free[idx] = i, False
+                nx[idx] = (lx[inside] + 0.5) * sx - 0.5
+                ny[idx] = (ly[inside] + 0.5) * sy - 0.5
+                mark[ys[idx], xs[idx]] = i + 1
     if free.all():
         return parts[:-1], (None if first else mark)
     out = [(int(i), ys[ks == i], xs[ks == i], nx[ks == i], ny[ks == i])
            for i in np.unique(ks) if i > -2]
     return out, mark
+
+
+def _covered(taken: list, cand: np.ndarray, ks: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+             ph: int) -> list[tuple[int, np.ndarray]]:
+    """Of the pixels ``cand``, those whose part reads a neighbour where it shows the object.
+
+    ``taken``: per neighbour ``i``, where the object's pixels were found in it (``qx,
+    qy``, plane pixels); a pixel of ``cand`` whose part (``ks``) reads that neighbour at
+    ``(nx, ny)`` within a pixel of the object's span on that row reads the object, which
+    covers there what the pixel's own (background) motion looks for.
+    """
+    out = []
+    for i in sorted({t[1] for t in taken}):
+        qx = np.concatenate([t[2] for t in taken if t[1] == i])
+        if not qx.size:
+            continue
+        row = np.rint(np.concatenate([t[3] for t in taken if t[1] == i])).astype(int)
+        lo, hi = np.full(ph, np.inf), np.full(ph, -np.inf)
+        np.minimum.at(lo, row.clip(0, ph - 1), qx)
+        np.maximum.at(hi, row.clip(0, ph - 1), qx)
+        mine = cand[ks[cand] == i]
+        r = np.rint(ny[mine]).astype(int).clip(0, ph - 1)
+        out.append((i, mine[(nx[mine] >= lo[r] - 1.0) & (nx[mine] <= hi[r] + 1.0)]))
+    return out
+
