@@ -156,8 +156,9 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
     :data:`HELD` is dropped: its velocity is not the one the pictures show; so is one that
     its background's velocity carries onto alike pixels nearly as often (by less than half
     of :data:`HELD`): a flat region matches anywhere. A kept object's core is what that
-    neighbour showed alike: a thin pole's band holds background beside it, which
-    :func:`objects_beyond` would otherwise take for the object's look.
+    neighbour showed alike there and not where the background's motion carries it: a thin
+    pole's band holds background beside it, which :func:`objects_beyond` would otherwise
+    take for the object's look.
     """
     gh, gw = grid
     ph, pw = own.shape[:2]
@@ -195,9 +196,13 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
             landed, top = int(n.max()), float(a.max())
             if landed >= RUN and (landed, top) > best[:2]:
                 pick = min(np.flatnonzero(a >= top - 1e-6), key=lambda i: abs(offsets[i]))
-                bg = shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)[1][0]
-                best = (landed, top, float(offsets[pick]), float(bg))
-                own_px = alike[pick]
+                _, bg, bg_alike = shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)
+                best = (landed, top, float(offsets[pick]), float(bg[0]))
+                # The object's own look: alike where it is carried, not where the
+                # background's motion carries it too (a flat sky matches anywhere).
+                own_px = alike[pick] & ~bg_alike[0]
+                if own_px.sum() < RUN:
+                    own_px = alike[pick]
         # Held where carried, and not where the background's motion would carry it too
         # (a flat sky matches anywhere).
         if best[1] >= HELD and best[1] - best[3] >= HELD / 2:
@@ -216,8 +221,9 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     Output pixel ``p`` shows the object if its source under the object's own motion,
     ``s = p + v tau(s_y)`` (:func:`edge_objects`), lies beyond the side the object
     touches, and a neighbour, read at ``s + v dt``, shows there what this frame shows
-    of the object where it touches the side (within :data:`ALIKE` grey levels, on the
-    first plane): the object is nearer, so it covers the background there. Rows read
+    of the object where it touches the side (within :data:`ALIKE` grey levels of its
+    core's median, on the first plane): the object is nearer, so it covers the background
+    there. Rows read
     after the reference try the previous frame first (the object, moving out, was
     further in), others the next. Where the check fails the pixel keeps its part; an object
     that takes fewer pixels than a band two grid pixels wide and :data:`RUN` rows high
@@ -290,6 +296,11 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
         vx, vy = obj.velocity
         s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
         s_x = gx + vx * (s_y - reference_row) * k
+        if first:
+            assert own is not None
+            look = np.median(sample_points(own, (obj.cols + 0.5) * sx - 0.5,
+                                           (obj.rows + 0.5) * sy - 0.5)
+                             .reshape(obj.rows.size, -1).astype(np.float32), axis=0)
         beyond = (s_x > gw - 0.5) if obj.side > 0 else (s_x < -0.5)
         open_ = free & beyond
         late = s_y >= reference_row
@@ -304,16 +315,9 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                 if not idx.size:
                     continue
                 qx, qy = (lx[idx] + 0.5) * sx - 0.5, (ly[idx] + 0.5) * sy - 0.5
-                if first:  # the object as this frame saw it, at its core's nearest row
-                    assert own is not None
-                    j = np.searchsorted(obj.rows, s_y[idx]).clip(0, obj.rows.size - 1)
-                    j = np.where(np.abs(obj.rows[np.maximum(j - 1, 0)] - s_y[idx])
-                                 < np.abs(obj.rows[j] - s_y[idx]), np.maximum(j - 1, 0), j)
-                    seen = sample_points(own, (obj.cols[j] + 0.5) * sx - 0.5,
-                                         (obj.rows[j] + 0.5) * sy - 0.5)
-                    there = sample_points(planes[i], qx, qy)
-                    alike = (np.abs(there.astype(np.float32) - seen.astype(np.float32))
-                             .reshape(idx.size, -1).max(axis=1) <= ALIKE)
+                if first:  # the object as this frame saw it: its core's median look
+                    there = sample_points(planes[i], qx, qy).reshape(idx.size, -1)
+                    alike = np.abs(there.astype(np.float32) - look).max(axis=1) <= ALIKE
                 else:
                     alike = at[idx] == i + 1
                 taken.append((idx[alike], i, qx[alike], qy[alike]))

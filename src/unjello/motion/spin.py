@@ -317,11 +317,6 @@ def _along(drift: np.ndarray, behind: np.ndarray) -> bool:
     return norm > 0 and float(np.dot(drift, behind)) >= ALONG * norm
 
 
-def _at_side(region: np.ndarray) -> bool:
-    """Whether ``region`` touches the frame's left or right side."""
-    return bool(region[:, 0].any() or region[:, -1].any())
-
-
 def keep_spinning(field: np.ndarray, image: np.ndarray,
                   others: Sequence[tuple[np.ndarray, float]], seeds: np.ndarray,
                   track: Track, t_ref: float, readout: float, *,
@@ -333,10 +328,10 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
 
     Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px, the
     :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`;
-    seen from one side only, along the motion around it and not where it touches the frame's
-    left or right side): one that it explains ``min_gain`` times better than the motion
-    around it, and moves a pixel or more a frame, is an object moving on its own (a near
-    pole the flow could not follow) and takes that drift as a rotation would (below).
+    seen from one side only, along the motion around it): one that it explains
+    ``min_gain`` times better than the motion around it, and moves a pixel or more a
+    frame, is an object moving on its own (a near pole the flow could not follow) and
+    takes that drift as a rotation would (below).
     Without ``rotations`` that is all; otherwise the others are fitted a rotation
     (:func:`fit_spin`, from the ``hints`` first, then by a full search; then again on the
     pixels its rotation explains, leaving out the background seen through the object). It is
@@ -384,11 +379,9 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
             return spin.gain >= min_gain or (spin.gain >= steady_gain and steady)
 
         # An object moving on its own (a near pole) is no spinner: a drift that explains
-        # it is taken before any rotation is searched. Seen from one side, not at the
-        # frame's side (what it covers beyond the edge, one side cannot tell), and only
-        # along the motion around it (:data:`ALONG`).
-        spin = None if len(others) < 2 and _at_side(region) else fit_drift(
-            image, others, region, track, t_ref, readout)
+        # it is taken before any rotation is searched; seen from one side, only along the
+        # motion around it (:data:`ALONG`).
+        spin = fit_drift(image, others, region, track, t_ref, readout)
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
