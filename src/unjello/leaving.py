@@ -223,11 +223,10 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     touches, and a neighbour, read at ``s + v dt``, shows there what this frame shows
     of the object where it touches the side (within :data:`ALIKE` grey levels of its
     core's median, on the first plane): the object is nearer, so it covers the background
-    there. Rows read
-    after the reference try the previous frame first (the object, moving out, was
-    further in), others the next. Where the check fails the pixel keeps its part; an object
-    that takes fewer pixels than a band two grid pixels wide and :data:`RUN` rows high
-    takes none (a speck at the edge, not an object's continuation). A pixel beyond that
+    there. Rows read after the reference try the previous frame first (the object, moving
+    out, was further in), others the next. Where the check fails the pixel keeps its part;
+    an object that takes fewer pixels than a band two grid pixels wide and :data:`RUN` rows
+    high takes none (a speck at the edge, not an object's continuation). A pixel beyond that
     side whose part reads the neighbour where it shows the object (:func:`_covered`: the
     object, further in then, covers the background the pixel looks for) is read along
     the object's motion instead, which lands beside the object there.
