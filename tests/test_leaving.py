@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from unjello.leaving import EdgeObject, _covered, edge_objects, settled_objects
+from unjello.leaving import EdgeObject, _covered, _overtaken, edge_objects, settled_objects
 from unjello.timing import SensorTiming
 from unjello.trajectory import FrameMotion
 from unjello.warp import PictureWarper
@@ -139,3 +139,21 @@ def test_covered_finds_the_pixels_read_where_the_neighbour_shows_the_object():
     cand = np.arange(15, 20)
     (i, idx), = [c for c in _covered(taken, cand, ks, nx, ny, 30) if c[0] == 0]
     assert i == 0 and idx.tolist() == [15, 16]
+
+
+def test_overtaken_refuses_the_object_where_its_own_motion_finds_background():
+    """A neighbour shows sky (75) and a white pole (250) over columns 20-25, its edge
+    blurred (225 at 26). A background sample on the pole, or on its blurred edge, whose
+    place under the pole's own motion shows sky is refused: the pole overtook the
+    background there. Not where the pole's motion finds the pole too (within two pixels:
+    its velocity is unsure), not a sample of sky, not where that motion leaves the frame."""
+    plane = np.full((10, 80), 75.0, np.float32)
+    plane[:, 20:26] = 250.0
+    plane[:, 26] = 225.0
+    look = np.array([250.0], np.float32)
+    #                 pole, edge, pole (found), pole (2 px off), sky, pole (left frame)
+    nx = np.array([22.0, 26.0, 22.0, 22.0, 40.0, 22.0])
+    lx = np.array([40.0, 40.0, 24.0, 27.9, 60.0, -3.0])
+    ny = ly = np.full(6, 5.0)
+    got = _overtaken(plane, look, nx, ny, lx, ly, (1.0, 1.0), 80)
+    assert got.tolist() == [True, True, False, False, False, False]

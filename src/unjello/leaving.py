@@ -20,7 +20,7 @@ from .neighbours import INSET, sample_points
 from .uncovered import UNIFORM
 
 __all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
-           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE"]
+           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE", "MISSED"]
 
 #: Rows of the field within this share of the readout of the reference scanline do not
 #: measure an object's velocity (its displacement there is near zero whatever it is).
@@ -40,6 +40,10 @@ HELD = 0.6
 #: Largest grey-level difference between an object's visible pixel and what a neighbour
 #: shows where the object's own motion carries a pixel beyond the edge.
 ALIKE = 10.0
+#: Grid pixels along x either side of where an object's own motion carries a pixel, that
+#: must all be unlike the object for a neighbour's look of it there to be refused
+#: (:func:`objects_beyond`).
+MISSED = 2.0
 
 
 @dataclass(frozen=True)
@@ -229,7 +233,10 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     high takes none (a speck at the edge, not an object's continuation). A pixel beyond that
     side whose part reads the neighbour where it shows the object (:func:`_covered`: the
     object, further in then, covers the background the pixel looks for) is read along
-    the object's motion instead, which lands beside the object there.
+    the object's motion instead, which lands beside the object there. And a pixel on the
+    object's side whose part reads the neighbour where it shows the object, but whose
+    place under the object's motion it does not (:func:`_overtaken`: the object, faster,
+    overtook the background there) is left as warped (unseen).
 
     Parameters
     ----------
@@ -321,6 +328,20 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                     alike = at[idx] == i + 1
                 taken.append((idx[alike], i, qx[alike], qy[alike]))
                 open_[idx[alike]] = False
+        # The background's pixels on its side whose neighbour sample shows it where its own
+        # motion says they are not it: it overtook the background there. Left as warped.
+        near = free & (ks >= 0) & ((gx > gw / 2) if obj.side > 0 else (gx < gw / 2))
+        near[np.concatenate([t[0] for t in taken])] = False
+        for i in range(len(offsets)):
+            idx = np.flatnonzero(near & (ks == i))
+            if first and idx.size:
+                idx = idx[_overtaken(planes[i], look, nx[idx], ny[idx],
+                                     s_x[idx] + vx * steps[i],
+                                     (s_y[idx] + vy * steps[i]).clip(0, gh - 1), (sx, sy), gw)]
+                mark[ys[idx], xs[idx]] = -1
+            elif idx.size:
+                idx = idx[at[idx] == -1]
+            ks[idx], free[idx] = -1, False
         if first and sum(t[0].size for t in taken) < least:
             continue  # a few pixels: no object's continuation, a speck
         for idx, i, qx, qy in taken:
@@ -342,6 +363,34 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     out = [(int(i), ys[ks == i], xs[ks == i], nx[ks == i], ny[ks == i])
            for i in np.unique(ks) if i > -2]
     return out, mark
+
+
+def _overtaken(plane: np.ndarray, look: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+               lx: np.ndarray, ly: np.ndarray, scale: tuple[float, float], gw: int
+               ) -> np.ndarray:
+    """Which background samples ``(nx, ny)`` of a neighbour show an object that is not there.
+
+    The pixel's own part reads the neighbour's ``plane`` at ``(nx, ny)`` (plane pixels);
+    the object's motion carries the pixel to ``(lx, ly)`` there (grid pixels). Where the
+    sample looks like the object (within :data:`ALIKE` grey levels of its ``look``, or,
+    at its blurred edge, nearer it than half-way to what the object's own landing shows,
+    up to three times that) and the object's own landing does not (unlike it by three
+    times :data:`ALIKE` within :data:`MISSED` pixels along x: its velocity is unsure), the
+    object, nearer and faster, covers there the background the pixel looks for: a pole
+    that overtook it at the frame's edge. Returns a bool mask of the samples.
+    """
+    sx, sy = scale
+    inside = (lx >= -0.5) & (lx <= gw - 0.5)
+
+    def unlike(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.abs(sample_points(plane, x, y).reshape(x.size, -1).astype(np.float32)
+                      - look).max(axis=1)
+
+    shows = unlike(nx, ny)
+    other = np.min([unlike((lx + d + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5)
+                    for d in (-MISSED, 0.0, MISSED)], axis=0)
+    return inside & (other > 3 * ALIKE) & (
+        shows <= np.maximum(ALIKE, np.minimum(other / 2, 3 * ALIKE)))
 
 
 def _covered(taken: list, cand: np.ndarray, ks: np.ndarray, nx: np.ndarray, ny: np.ndarray,
