@@ -3,7 +3,14 @@
 import cv2
 import numpy as np
 
-from unjello.leaving import EdgeObject, _covered, _overtaken, edge_objects, settled_objects
+from unjello.leaving import (
+    EdgeObject,
+    _covered,
+    _overtaken,
+    edge_objects,
+    objects_beyond,
+    settled_objects,
+)
 from unjello.timing import SensorTiming
 from unjello.trajectory import FrameMotion
 from unjello.warp import PictureWarper
@@ -157,3 +164,16 @@ def test_overtaken_refuses_the_object_where_its_own_motion_finds_background():
     ny = ly = np.full(6, 5.0)
     got = _overtaken(plane, look, nx, ny, lx, ly, (1.0, 1.0), 80)
     assert got.tolist() == [True, True, False, False, False, False]
+
+
+def test_objects_beyond_leaves_the_parts_alone_when_the_object_covers_none_of_them():
+    """An object whose motion carries no strip pixel beyond its side takes none, and a
+    neighbour that shows nothing unlike it refuses none: the parts come back as given."""
+    plane = np.zeros((20, 40), np.float32)
+    obj = EdgeObject(-1, np.arange(5, 15), np.full(10, 3), (0.0, 0.0), (0.0, 0.0))
+    parts = [(0, np.array([5, 6]), np.array([0, 1]), np.array([10.0, 11.0]),
+              np.array([5.0, 6.0]))]
+    out, decided = objects_beyond(parts, [obj], (20, 40), 1.0, 9.5, [1.0], [1], plane,
+                                  [plane])
+    assert decided is None and len(out) == 1
+    assert all(np.array_equal(a, b) for a, b in zip(out[0], parts[0], strict=True))

@@ -331,7 +331,8 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
         # The background's pixels on its side whose neighbour sample shows it where its own
         # motion says they are not it: it overtook the background there. Left as warped.
         near = free & (ks >= 0) & ((gx > gw / 2) if obj.side > 0 else (gx < gw / 2))
-        near[np.concatenate([t[0] for t in taken])] = False
+        for t in taken:
+            near[t[0]] = False
         for i in range(len(offsets)):
             idx = np.flatnonzero(near & (ks == i))
             if first and idx.size:
