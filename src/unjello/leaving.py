@@ -322,8 +322,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                     continue
                 qx, qy = (lx[idx] + 0.5) * sx - 0.5, (ly[idx] + 0.5) * sy - 0.5
                 if first:  # the object as this frame saw it: its core's median look
-                    there = sample_points(planes[i], qx, qy).reshape(idx.size, -1)
-                    alike = np.abs(there.astype(np.float32) - look).max(axis=1) <= ALIKE
+                    alike = _unlike(planes[i], look, qx, qy) <= ALIKE
                 else:
                     alike = at[idx] == i + 1
                 taken.append((idx[alike], i, qx[alike], qy[alike]))
@@ -366,6 +365,12 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     return out, mark
 
 
+def _unlike(plane: np.ndarray, look: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Largest grey-level difference (over channels) of ``plane`` at ``(x, y)`` from ``look``."""
+    return np.abs(sample_points(plane, x, y).reshape(x.size, -1).astype(np.float32)
+                  - look).max(axis=1)
+
+
 def _overtaken(plane: np.ndarray, look: np.ndarray, nx: np.ndarray, ny: np.ndarray,
                lx: np.ndarray, ly: np.ndarray, scale: tuple[float, float], gw: int
                ) -> np.ndarray:
@@ -382,13 +387,8 @@ def _overtaken(plane: np.ndarray, look: np.ndarray, nx: np.ndarray, ny: np.ndarr
     """
     sx, sy = scale
     inside = (lx >= -0.5) & (lx <= gw - 0.5)
-
-    def unlike(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return np.abs(sample_points(plane, x, y).reshape(x.size, -1).astype(np.float32)
-                      - look).max(axis=1)
-
-    shows = unlike(nx, ny)
-    other = np.min([unlike((lx + d + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5)
+    shows = _unlike(plane, look, nx, ny)
+    other = np.min([_unlike(plane, look, (lx + d + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5)
                     for d in (-MISSED, 0.0, MISSED)], axis=0)
     return inside & (other > 3 * ALIKE) & (
         shows <= np.maximum(ALIKE, np.minimum(other / 2, 3 * ALIKE)))
