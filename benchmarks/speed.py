@@ -316,6 +316,8 @@ def profile(args: argparse.Namespace) -> None:
         d = Path(tmp)
         for label, size, frames in (("1080p", (1920, 1080), args.frames),
                                     ("4K", (3840, 2160), args.k4_frames)):
+            if frames < 1:  # --k4-frames 0: that size left out
+                continue
             clip = d / f"clip_{label}.mp4"
             build_clip(clip, frames, size)
             stages = profile_stages(clip, d / "staged.mp4", frames)
