@@ -131,6 +131,27 @@ def test_settled_objects_keep_a_pole_narrower_than_its_core():
     assert np.all(np.diff(kept.rows) >= 0)
 
 
+def _banded(obj: EdgeObject, shifts: tuple[int, ...]) -> EdgeObject:
+    """The object's core with copies of it ``shifts`` columns to the left (background)."""
+    rows = np.concatenate([obj.rows] * len(shifts))
+    cols = np.concatenate([obj.cols - s for s in shifts])
+    order = np.argsort(rows, kind="stable")
+    return EdgeObject(obj.side, rows[order], cols[order], obj.velocity, obj.behind)
+
+
+def test_settled_objects_count_only_what_the_background_motion_does_not_explain():
+    """A core three quarters background (as a clip's last frame, one neighbour, showed:
+    half of it held at the pole's velocity, the background beside the pole matching its
+    own velocity) keeps the pole: only the pixels the background's motion does not carry
+    onto alike ones count."""
+    pan = _pan()
+    obj = edge_objects(pan["field"], 1.0, REF)[0]
+    kept, = settled_objects([_banded(obj, (0, 8, 12, 16))], pan["frame"], [pan["prev"]],
+                            [-1.0], (H, W))
+    assert abs(kept.velocity[0] - NEAR) <= 2.0
+    pole = set(zip(obj.rows.tolist(), obj.cols.tolist(), strict=True))
+    assert pole <= set(zip(kept.rows.tolist(), kept.cols.tolist(), strict=True))
+
 
 def test_covered_finds_the_pixels_read_where_the_neighbour_shows_the_object():
     """The object was found in neighbour 0 at columns 40-44 of rows 10-12; of the strip's

@@ -20,7 +20,8 @@ from .neighbours import INSET, sample_points
 from .uncovered import UNIFORM
 
 __all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
-           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE", "MISSED"]
+           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE",
+           "MISSED"]
 
 #: Rows of the field within this share of the readout of the reference scanline do not
 #: measure an object's velocity (its displacement there is near zero whatever it is).
@@ -156,13 +157,14 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
     is scored, and of the best offsets the one nearest zero kept (the field's own where it
     is among them: a pole matches over a range as wide as itself, whose middle is where
     the core, not the pole, is centred).
-    An object whose best share (in the neighbour where most land inside) is under
-    :data:`HELD` is dropped: its velocity is not the one the pictures show; so is one that
-    its background's velocity carries onto alike pixels nearly as often (by less than half
-    of :data:`HELD`): a flat region matches anywhere. A kept object's core is what that
-    neighbour showed alike there and not where the background's motion carries it: a thin
-    pole's band holds background beside it, which :func:`objects_beyond` would otherwise
-    take for the object's look.
+    The share counts only the core pixels that the background's velocity does not carry
+    onto alike ones: a thin pole's band holds background beside it, which matches at
+    the background's velocity and not at the pole's, and a flat region matches anywhere.
+    An object whose best share (in the neighbour where most such pixels land inside, at
+    least :data:`RUN`) is under :data:`HELD` is dropped: its velocity is not the one the
+    pictures show. A kept object's core is what that neighbour showed alike there and not
+    where the background's motion carries it, which :func:`objects_beyond` takes for the
+    object's look.
     """
     gh, gw = grid
     ph, pw = own.shape[:2]
@@ -173,43 +175,42 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
                        ).astype(np.float32).reshape(obj.rows.size, -1)
 
         def shares(plane: np.ndarray, vx: np.ndarray, vy: float, dt: float,
-                   seen: np.ndarray = seen, obj: EdgeObject = obj
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   among: np.ndarray | None = None, seen: np.ndarray = seen,
+                   obj: EdgeObject = obj) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             """Return, per horizontal velocity of ``vx``, the core pixels carried inside.
 
-            And the share of them alike (0 for one carrying fewer than :data:`RUN`), and
-            which are (velocity, pixel).
+            Of those ``among`` (all if None): their count, the share alike (0 for a
+            count under :data:`RUN`), and which of all are alike (velocity, pixel).
             """
             lx = obj.cols[None, :] + vx[:, None] * dt
             inside = (lx >= -0.5) & (lx <= gw - 0.5)
-            n = inside.sum(axis=1)
             ly = (obj.rows + vy * dt).clip(0, gh - 1)
             there = sample_points(plane, ((lx + 0.5) * sx - 0.5).ravel(),
                                   np.tile((ly + 0.5) * sy - 0.5, vx.size)
                                   ).astype(np.float32).reshape(vx.size, obj.rows.size, -1)
             alike = (np.abs(there - seen[None]).max(axis=2) <= ALIKE) & inside
+            counted = inside if among is None else inside & among
+            n = counted.sum(axis=1)
             held = n >= RUN
-            return (np.where(held, n, 0), np.where(held, alike.sum(axis=1) / np.maximum(n, 1),
-                                                   0.0), alike)
+            return (np.where(held, n, 0),
+                    np.where(held, (alike & counted).sum(axis=1) / np.maximum(n, 1), 0.0),
+                    alike)
 
-        best: tuple[int, float, float, float] = (0, 0.0, 0.0, 1.0)  # landed, share, dx, bg's
+        best: tuple[int, float, float] = (0, 0.0, 0.0)  # landed, share, dx
         own_px = np.ones(obj.rows.size, bool)
         offsets = np.arange(-SEARCH, SEARCH + 0.25, 0.5)
         for plane, dt in zip(planes, steps, strict=True):
-            n, a, alike = shares(plane, obj.velocity[0] + offsets, obj.velocity[1], dt)
+            # The object's own pixels: those its background's motion does not carry onto
+            # alike ones (a band around a thin pole holds background too, and a flat sky
+            # matches anywhere).
+            mine = ~shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)[2][0]
+            n, a, alike = shares(plane, obj.velocity[0] + offsets, obj.velocity[1], dt, mine)
             landed, top = int(n.max()), float(a.max())
             if landed >= RUN and (landed, top) > best[:2]:
                 pick = min(np.flatnonzero(a >= top - 1e-6), key=lambda i: abs(offsets[i]))
-                _, bg, bg_alike = shares(plane, np.array([obj.behind[0]]), obj.behind[1], dt)
-                best = (landed, top, float(offsets[pick]), float(bg[0]))
-                # The object's own look: alike where it is carried, not where the
-                # background's motion carries it too (a flat sky matches anywhere).
-                own_px = alike[pick] & ~bg_alike[0]
-                if own_px.sum() < RUN:
-                    own_px = alike[pick]
-        # Held where carried, and not where the background's motion would carry it too
-        # (a flat sky matches anywhere).
-        if best[1] >= HELD and best[1] - best[3] >= HELD / 2:
+                best = (landed, top, float(offsets[pick]))
+                own_px = alike[pick] & mine
+        if best[1] >= HELD:
             kept.append(dataclasses.replace(
                 obj, velocity=(obj.velocity[0] + best[2], obj.velocity[1]),
                 rows=obj.rows[own_px], cols=obj.cols[own_px]))
