@@ -20,8 +20,7 @@ from .neighbours import INSET, sample_points
 from .uncovered import UNIFORM
 
 __all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
-           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE",
-           "MISSED"]
+           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE", "MISSED"]
 
 #: Rows of the field within this share of the readout of the reference scanline do not
 #: measure an object's velocity (its displacement there is near zero whatever it is).
