@@ -2,6 +2,7 @@
 
 import cv2
 import numpy as np
+import pytest
 
 from unjello.leaving import (
     EdgeObject,
@@ -111,6 +112,43 @@ def test_the_warper_carries_the_pole_beyond_the_edge_from_the_previous_frame():
         neighbours=((-1, pan["flow"]),)), {-1: [_pan(pole=False)["prev"]]})[0]
     right = slice(int(POLE[1]) + 2, W)
     assert np.abs(out[rows, right] - plain[rows, right]).mean() < 1.0
+
+
+def test_objects_beyond_reads_the_background_beside_the_pole_at_its_own_motion():
+    """Beside a pole touching the right side, the flow carried past the edge is the pole's
+    (DIS blends it across the outline): a strip pixel of background is read where the
+    pole's motion carries it (30 px a frame) instead of its own (20). Where that sample
+    shows no pole within two pixels, it is read at the background's motion instead; one
+    read at the background's motion already, or next to the pole (its blurred outline),
+    is left alone; the half-size plane follows the first's decisions."""
+    h, w, ref = 40, 80, 19.5
+    rng = np.random.default_rng(3)
+    prev = rng.uniform(100, 160, (h, w)).astype(np.float32)
+    prev[:, 20:25] = 40.0  # the pole, as the previous frame saw it
+    own = rng.uniform(100, 160, (h, w)).astype(np.float32)
+    own[:, 76:] = 40.0
+    obj = EdgeObject(1, np.repeat(np.arange(10, 30), 4), np.tile(np.arange(76, 80), 20),
+                     (30.0, 0.0), (20.0, 0.0))
+    y = 31
+
+    def read(v: float, x: float) -> float:  # where motion v carries (x, y) in the previous
+        return x + v * ((y - ref) / h - 1.0)
+
+    xs = np.array([71, 73, 75])
+    #          the pole's motion (texture), the background's, the pole's (1 px from it)
+    nx = np.array([read(30.0, 71), read(20.0, 73), 25.5], np.float32)
+    parts = [(0, np.full(3, y), xs, nx, np.full(3, float(y), np.float32))]
+    out, decided = objects_beyond(parts, [obj], (h, w), 1.0, ref, [-1.0], [-1], own, [prev])
+    got = {int(x): float(n) for part in out if part[0] == 0
+           for x, n in zip(part[2], part[3], strict=True)}
+    assert got == pytest.approx({71: read(20.0, 71), 73: read(20.0, 73), 75: 25.5})
+    half = [(0, np.full(3, y // 2), xs // 2, nx / 2, np.full(3, y / 2, np.float32))]
+    out2, _ = objects_beyond(half, [obj], (h, w), 1.0, ref, [-1.0], [-1], None,
+                             [cv2.resize(prev, (w // 2, h // 2))], decided)
+    got2 = {int(x): float(n) for part in out2 if part[0] == 0
+            for x, n in zip(part[2], part[3], strict=True)}
+    assert got2[35] == pytest.approx((read(20.0, 71) + 0.5) / 2 - 0.5, abs=0.6)
+    assert got2[37] == pytest.approx(25.5 / 2)
 
 
 def test_settled_objects_keep_a_pole_narrower_than_its_core():

@@ -44,6 +44,8 @@ ALIKE = 10.0
 #: must all be unlike the object for a neighbour's look of it there to be refused
 #: (:func:`objects_beyond`).
 MISSED = 2.0
+#: :func:`objects_beyond`'s mark of a pixel re-read along the background's motion.
+_REREAD = 99
 
 
 @dataclass(frozen=True)
@@ -236,7 +238,10 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     the object's motion instead, which lands beside the object there. And a pixel on the
     object's side whose part reads the neighbour where it shows the object, but whose
     place under the object's motion it does not (:func:`_overtaken`: the object, faster,
-    overtook the background there) is left as warped (unseen).
+    overtook the background there) is left as warped (unseen). A pixel on the object's
+    side read where the object's motion, not the background's, carries it (the flow past
+    the edge is the object's beside it) and showing no object there is read along the
+    background's motion instead (:func:`_behind`).
 
     Parameters
     ----------
@@ -264,7 +269,8 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     parts : list
         The parts, with the object's pixels moved to the neighbour that shows it.
     decided : ndarray of int8 or None
-        On the first plane: per pixel, 1 + the neighbour that showed the object, 0 where
+        On the first plane: per pixel, 1 + the neighbour that showed the object, -1 where
+        left as warped, ``_REREAD`` where re-read along the background's motion, 0 where
         none; None where no pixel changed.
     """
     if not objects:
@@ -297,6 +303,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
         at = mark[np.clip(((ys + 0.5) * dh / ph).astype(int), 0, dh - 1),
                   np.clip(((xs + 0.5) * dw / pw).astype(int), 0, dw - 1)]
     free = np.ones(ys.size, bool)
+    reread_any = False
     least = 2 * RUN * sx * sy  # plane pixels: a band two grid pixels wide, RUN rows high
     for obj in objects:
         vx, vy = obj.velocity
@@ -327,11 +334,27 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                     alike = at[idx] == i + 1
                 taken.append((idx[alike], i, qx[alike], qy[alike]))
                 open_[idx[alike]] = False
-        # The background's pixels on its side whose neighbour sample shows it where its own
-        # motion says they are not it: it overtook the background there. Left as warped.
         near = free & (ks >= 0) & ((gx > gw / 2) if obj.side > 0 else (gx < gw / 2))
         for t in taken:
             near[t[0]] = False
+        if first:  # (the other planes follow the first's decisions)
+            idx = np.flatnonzero(near)
+            reread = np.zeros(ks.size, bool)
+            for i in range(len(offsets)):
+                at_i = idx[ks[idx] == i]
+                if at_i.size:  # (not at the object's blurred outline either)
+                    far = np.min([_unlike(planes[i], look, nx[at_i] + d * sx, ny[at_i])
+                                  for d in (-MISSED, 0.0, MISSED)], axis=0) > ALIKE
+                    reread[at_i[far]] = True
+        else:
+            reread = near & (at == _REREAD)
+        moved = _behind(near & reread, ks, nx, ny, (gx, gy), obj, steps, (sx, sy), grid,
+                        readout, reference_row)
+        if first:
+            mark[ys[moved], xs[moved]] = _REREAD
+        reread_any |= moved.size > 0
+        # The background's pixels on its side whose neighbour sample shows it where its own
+        # motion says they are not it: it overtook the background there. Left as warped.
         for i in range(len(offsets)):
             idx = np.flatnonzero(near & (ks == i))
             if first and idx.size:
@@ -358,11 +381,48 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
                 nx[idx] = (lx[inside] + 0.5) * sx - 0.5
                 ny[idx] = (ly[inside] + 0.5) * sy - 0.5
                 mark[ys[idx], xs[idx]] = i + 1
-    if free.all():
+    if free.all() and not reread_any:
         return parts[:-1], (None if first else mark)
     out = [(int(i), ys[ks == i], xs[ks == i], nx[ks == i], ny[ks == i])
            for i in np.unique(ks) if i > -2]
     return out, mark
+
+
+def _behind(near: np.ndarray, ks: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+            at: tuple[np.ndarray, np.ndarray], obj: EdgeObject, steps: list[float],
+            scale: tuple[float, float], grid: tuple[int, int], readout: float,
+            reference_row: float) -> np.ndarray:
+    """Re-read along the background's motion the strip pixels read along the object's.
+
+    :func:`neighbour_sources` carries the flow past the edge as the flow a few pixels in,
+    which beside an object touching the side is the object's (the flow blends across its
+    outline): the background beyond the edge is then read where the object's motion,
+    not its own, carries it. Of the pixels ``near`` (background on the object's side read
+    from neighbour ``ks`` at ``(nx, ny)``, plane pixels), those whose sample lies nearer
+    (along x) where ``obj.velocity`` carries them than where ``obj.behind`` does are
+    moved, in place, to the latter, where it lies inside the frame. ``at``: the pixels'
+    places (grid pixels).
+    """
+    idx = np.flatnonzero(near)
+    if not idx.size:
+        return idx
+    gx, gy = at[0][idx], at[1][idx]
+    sx, sy = scale
+    gh, gw = grid
+    k = readout / gh
+    step = np.asarray(steps, np.float64)[ks[idx]]
+    reads = []
+    for vx, vy in (obj.velocity, obj.behind):
+        s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
+        reads.append((gx + vx * ((s_y - reference_row) * k + step),
+                      (s_y + vy * step).clip(0, gh - 1)))
+    (ox, _), (bx, by) = reads
+    read = (nx[idx] + 0.5) / sx - 0.5
+    move = (np.abs(read - ox) < np.abs(read - bx)) & (bx >= -0.5) & (bx <= gw - 0.5)
+    idx = idx[move]
+    nx[idx] = (bx[move] + 0.5) * sx - 0.5
+    ny[idx] = (by[move] + 0.5) * sy - 0.5
+    return idx
 
 
 def _unlike(plane: np.ndarray, look: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
