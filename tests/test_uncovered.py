@@ -58,6 +58,12 @@ def test_uncovered_finds_what_the_pole_covered_and_where_the_neighbour_saw_it():
     assert alone is not None and np.all(alone[2] == 0)
     assert np.array_equal(alone[1], found[1])
     assert uncovered(maps, field, [flow], [-1], reference_row=float(H)) is None  # not asked
+    # ... and from the previous frame where the next frame's sample leaves its frame (a
+    # fast pan carried the background near the side out of it).
+    gone = np.full((H, W, 2), [60.0, 0.0], np.float32)
+    other = uncovered(maps, field, [flow, gone], [-1, 1], reference_row=float(H))
+    assert other is not None and np.all(other[2] == 0)
+    assert np.array_equal(other[1], found[1]) and np.allclose(other[3], found[3])
     # Without parallax nothing is uncovered.
     flat = np.full((H, W, 2), 3.0, np.float32)
     flat[..., 1] = 0.0

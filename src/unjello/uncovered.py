@@ -51,8 +51,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     otherwise (the object, in this frame), a neighbour saw the background: it is read
     there along that pixel's flow -- for a row read after the reference, in the
     previous frame, which the object had not yet covered; before it, in the next one;
-    with ``lone``, a lone neighbour (a pair, a clip's ends) for every row, where the
-    object has moved on too.
+    where that neighbour's sample lies outside its frame, in the other (a fast pan
+    carries the background near the side out of the next frame; the previous one, the
+    object further back then, shows it); with ``lone``, a lone neighbour (a pair, a
+    clip's ends) for every row, where the object has moved on too.
     Across the row's motion a flat object's flow is unsure (the aperture): only the
     part along it counts. :func:`confirmed` then checks each pixel on the picture.
 
@@ -136,18 +138,26 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     late = ys + d[:, 1] >= reference_row  # its row, read after the reference
     k = np.full(ys.size, -1)
     delta = np.zeros((ys.size, 2), np.float32)
-    for i, offset in enumerate(offsets):
-        # A lone neighbour (a pair, a clip's ends) is the only one to read: the object has
-        # moved on there too (confirmed() checks it on the picture).
-        mine = (np.arange(ys.size) if lone and len(offsets) == 1
-                else np.flatnonzero(late if offset < 0 else ~late))
-        if not mine.size:
-            continue
-        n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]], my[qy[mine], qx[mine]])
-        nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
-        ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
-        k[mine[ok]] = i
-        delta[mine[ok]] = n[ok]
+    for rank in (0, 1):
+        for i, offset in enumerate(offsets):
+            # A lone neighbour (a pair, a clip's ends) is the only one to read: the object
+            # has moved on there too (confirmed() checks it on the picture). Of two, each
+            # pixel's preferred one first, then the other.
+            if len(offsets) == 1 and rank == 1:
+                continue
+            if lone and len(offsets) == 1:
+                mine = np.arange(ys.size)
+            else:
+                mine = np.flatnonzero((late if offset < 0 else ~late) ^ (rank == 1))
+                mine = mine[k[mine] < 0]
+            if not mine.size:
+                continue
+            n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]],
+                                        my[qy[mine], qx[mine]])
+            nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
+            ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+            k[mine[ok]] = i
+            delta[mine[ok]] = n[ok]
     found = k >= 0
     if not found.any():
         return None
