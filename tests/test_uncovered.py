@@ -51,7 +51,12 @@ def test_uncovered_finds_what_the_pole_covered_and_where_the_neighbour_saw_it():
     # The rows read before the reference: from the next frame, where there is one ...
     nxt = -flow
     both = uncovered(maps, field, [flow, nxt], [-1, 1], reference_row=float(H))
+    assert both is not None and np.all(both[2] == 1) and np.all(both[6] == -1)
+    # ... and, in a frame with an object moving on its own, where the other one would
+    # see it too (confirmed() compares the two).
+    both = uncovered(maps, field, [flow, nxt], [-1, 1], reference_row=float(H), lone=True)
     assert both is not None and np.all(both[2] == 1)
+    assert np.all(both[6] == 0) and np.allclose(both[7], [8.0, 0.0], atol=0.05)
     # ... and from the previous frame where it is the only one (a pair's second frame)
     # and the frame shows an object moving on its own: it has moved on there too.
     alone = uncovered(maps, field, [flow], [-1], reference_row=float(H), lone=True)
@@ -111,3 +116,22 @@ def test_a_fill_is_kept_only_where_it_looks_like_the_background(seen, kept):
     # A single pixel is a speck, not an object's edge uncovered.
     one = tuple(a[:1] for a in found)
     assert confirmed(one, (10, 12), out, [np.full((10, 12), 100.0, np.float32)]) is None
+
+
+@pytest.mark.parametrize(("other", "kept"), [(104.0, 8), (170.0, 0)])
+def test_a_fill_both_neighbours_agree_on_is_kept_beside_the_object_itself(other, kept):
+    # The pixels beside the band are the object too (250: its own field was the
+    # background's, so it gave the displacement), and the neighbour shows 100 where the
+    # uncovered points lie: kept where the other neighbour shows the same (within
+    # AGREE), not where it shows something else.
+    out = np.full((10, 12), 100.0, np.float32)
+    out[3:7, 4:12] = 250.0
+    ys, xs = (a.ravel() for a in np.mgrid[3:7, 4:6])
+    n = ys.size
+    found = (ys, xs, np.zeros(n, int), np.zeros((n, 2), np.float32), ys, xs + 4,
+             np.ones(n, int), np.zeros((n, 2), np.float32))
+    planes = [np.full((10, 12), 100.0, np.float32), np.full((10, 12), other, np.float32)]
+    got = confirmed(found, (10, 12), out, planes)
+    assert (0 if got is None else got[0].size) == kept
+    # Without a second view, the object beside it is what the output is compared with.
+    assert confirmed(found[:6], (10, 12), out, planes[:1]) is None

@@ -16,7 +16,7 @@ from .neighbours import sample_points
 from .timing import pixel_grid
 
 __all__ = ["uncovered", "uncovered_sources", "confirmed", "SETTLED", "REACH", "UNIFORM",
-           "GROUP"]
+           "GROUP", "AGREE"]
 
 #: A backward map whose source's own displacement differs from the map's by more than
 #: this (pixels of the maps' grid) has not settled on one surface.
@@ -29,6 +29,9 @@ REACH = 12
 UNIFORM = 0.1
 #: Fewest pixels of the grid, side by side, taken as uncovered background.
 GROUP = 6
+#: Largest grey-level difference (over channels) between what the two neighbours show
+#: at an uncovered pixel for them to agree on its background (:func:`confirmed`).
+AGREE = 20.0
 _DIRECTIONS = np.array([(0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1)])
 _STEPS = np.array([1, 2, 3, 4, 6, 8, REACH])
 
@@ -71,15 +74,18 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     reference_row : float
         The reference scanline (pixels of the grid, top-bottom).
     lone : bool
-        Whether a lone neighbour is read for every row (the frame shows an object moving
-        on its own; without one, a fast pan's flow errors would be taken for it).
+        Whether the frame shows an object moving on its own: a lone neighbour is then
+        read for every row (without one, a fast pan's flow errors would be taken for
+        it), and of two, the other's view is returned for :func:`confirmed`.
 
     Returns
     -------
-    (ys, xs, k, delta, qy, qx) or None
+    (ys, xs, k, delta, qy, qx, k2, delta2) or None
         The pixels, the index of the flow whose neighbour to read, where to read it less
-        the pixel (grid pixels), and the pixel whose displacement it took (for
-        :func:`confirmed`); None where nothing is uncovered.
+        the pixel (grid pixels), the pixel whose displacement it took, and where the
+        other neighbour would be read (``k2`` -1 where there is none, its sample leaves
+        its frame, or without ``lone``; for :func:`confirmed`); None where nothing is
+        uncovered.
     """
     mx, my = maps
     h, w = mx.shape
@@ -161,7 +167,25 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     found = k >= 0
     if not found.any():
         return None
-    return ys[found], xs[found], k[found], delta[found], qy[found], qx[found]
+    ys, xs, k, delta, qy, qx = ys[found], xs[found], k[found], delta[found], qy[found], qx[found]
+    d = d[found]
+    # Where the other neighbour would see it too (confirmed(): two views that agree), in
+    # a frame with an object moving on its own (``lone``; without one, a near object
+    # the flow follows -- a finger passing the lens -- can show in both).
+    k2 = np.full(ys.size, -1)
+    delta2 = np.zeros((ys.size, 2), np.float32)
+    if lone and len(offsets) == 2:
+        for i in (0, 1):
+            mine = np.flatnonzero(k == 1 - i)
+            if not mine.size:
+                continue
+            n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]],
+                                        my[qy[mine], qx[mine]])
+            nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
+            ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+            k2[mine[ok]] = i
+            delta2[mine[ok]] = n[ok]
+    return ys, xs, k, delta, qy, qx, k2, delta2
 
 
 def uncovered_sources(found: tuple[np.ndarray, ...], grid: tuple[int, int],
@@ -201,13 +225,15 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
     Checked on a plane at each pixel's centre: the neighbour's sample must be nearer in
     value to the background beside it (the output at the pixel whose displacement it
     took and the next two on from it, away from the pixel) than the output there is now
-    (the near object stretched over it). A wrong displacement (a field that does not
-    settle where no object is) would otherwise bring in whatever the neighbour shows
-    there. What is left must come in groups of at least :data:`GROUP` pixels of the
-    grid: an object's edge is uncovered along its length, and single pixels drawn from
-    elsewhere show as specks.
+    (the near object stretched over it) -- or, where the other neighbour sees the pixel
+    too, agree with what that one shows (within :data:`AGREE` grey levels: two views of
+    one background; the pixels beside may be the object itself, where its own field
+    was the background's). A wrong displacement (a field that does not settle where no
+    object is) would otherwise bring in whatever the neighbour shows there. What is left
+    must come in groups of at least :data:`GROUP` pixels of the grid: an object's edge is
+    uncovered along its length, and single pixels drawn from elsewhere show as specks.
     """
-    ys, xs, k, delta, qy, qx = found
+    ys, xs, k, delta, qy, qx = found[:6]
     (h, w), (ph, pw) = grid, out.shape[:2]
     sx, sy = pw / w, ph / h
 
@@ -227,6 +253,15 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
         seen[sel] = sample_points(planes[i], px + delta[sel, 0] * sx, py + delta[sel, 1] * sy
                             ).astype(np.float32).reshape(sel.sum(), -1)
     keep = np.abs(seen - back).sum(axis=1) < np.abs(now - back).sum(axis=1)
+    if len(found) > 6:
+        k2, delta2 = found[6:8]
+        for i in np.unique(k2[k2 >= 0]):
+            sel = np.flatnonzero(k2 == i)
+            px = np.clip(np.rint((xs[sel] + 0.5) * sx - 0.5), 0, pw - 1)
+            py = np.clip(np.rint((ys[sel] + 0.5) * sy - 0.5), 0, ph - 1)
+            other = sample_points(planes[i], px + delta2[sel, 0] * sx, py + delta2[sel, 1] * sy
+                                  ).astype(np.float32).reshape(sel.size, -1)
+            keep[sel] |= np.abs(other - seen[sel]).max(axis=1) <= AGREE
     mask = np.zeros(grid, np.uint8)
     mask[ys[keep], xs[keep]] = 1
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
