@@ -135,3 +135,23 @@ def test_a_fill_both_neighbours_agree_on_is_kept_beside_the_object_itself(other,
     assert (0 if got is None else got[0].size) == kept
     # Without a second view, the object beside it is what the output is compared with.
     assert confirmed(found[:6], (10, 12), out, planes[:1]) is None
+
+
+def test_uncovered_reads_in_this_frame_a_map_that_went_to_the_object_beside_it():
+    """Output columns 23-24 show background whose source (26-27, left of the pole) this
+    frame saw, but their maps went to the pole's sources (31-32: the fixed point of a
+    field that jumps at the pole's edge can). With ``here`` they are read in this frame
+    at the background's displacement, as the flow index after the last."""
+    _, _, _, field = _layers()
+    mx, my = (m.copy() for m in field_maps(field))
+    mx[:, 23:25] += 5.0  # sources 31-32: the pole's
+    flow = np.zeros((H, W, 2), np.float32)
+    flow[..., 0] = 5.0
+    found = uncovered((mx, my), field, [flow], [-1], reference_row=0.0, here=True)
+    assert found is not None
+    ys, xs, k, delta = found[:4]
+    mine = k == 1
+    assert set(xs[mine].tolist()) == {23, 24} and np.allclose(delta[mine], [3.0, 0.0])
+    assert np.all(found[6][mine] == -1)  # no second view
+    without = uncovered((mx, my), field, [flow], [-1], reference_row=0.0)
+    assert without is None or not np.isin(without[1], [23, 24]).any()

@@ -37,8 +37,8 @@ _STEPS = np.array([1, 2, 3, 4, 6, 8, REACH])
 
 
 def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: list[np.ndarray],
-              offsets: list[int], reference_row: float, lone: bool = False
-              ) -> tuple[np.ndarray, ...] | None:
+              offsets: list[int], reference_row: float, lone: bool = False,
+              here: bool = False) -> tuple[np.ndarray, ...] | None:
     """Output pixels showing background that a nearer object covered in this frame.
 
     A near object (a pole passing in front of a pan) moves across its background:
@@ -77,6 +77,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
         Whether the frame shows an object moving on its own: a lone neighbour is then
         read for every row (without one, a fast pan's flow errors would be taken for
         it), and of two, the other's view is returned for :func:`confirmed`.
+    here : bool
+        Also the pixels whose maps did not settle though the background's source in
+        this frame moves as the background (the maps' fixed point went to the object
+        beside it): read in this frame there, as flow index ``len(flows)``.
 
     Returns
     -------
@@ -140,6 +144,9 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     # Uncovered where the background's source in this frame moves otherwise.
     there = sample_points(field, xs + d[:, 0], ys + d[:, 1])
     hidden = np.abs(((there - d) * along).sum(axis=1)) > SETTLED
+    seen = ~hidden & (xs + d[:, 0] >= -0.5) & (xs + d[:, 0] <= w - 0.5) & (
+        ys + d[:, 1] >= -0.5) & (ys + d[:, 1] <= h - 0.5) if here else np.zeros(0, bool)
+    mine_here = tuple(a[seen] for a in (ys, xs, d, qy, qx)) if here else None
     ys, xs, d, qy, qx = ys[hidden], xs[hidden], d[hidden], qy[hidden], qx[hidden]
     late = ys + d[:, 1] >= reference_row  # its row, read after the reference
     k = np.full(ys.size, -1)
@@ -165,10 +172,18 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
             k[mine[ok]] = i
             delta[mine[ok]] = n[ok]
     found = k >= 0
-    if not found.any():
+    if mine_here is not None and mine_here[0].size:  # read in this frame (index len(flows))
+        hy, hx, hd, hqy, hqx = mine_here
+        ys, xs, qy, qx = (np.concatenate([a[found], b]) for a, b in
+                          ((ys, hy), (xs, hx), (qy, hqy), (qx, hqx)))
+        k = np.concatenate([k[found], np.full(hy.size, len(flows))])
+        delta = np.concatenate([delta[found], hd.astype(np.float32)])
+        d = np.concatenate([d[found], hd])
+    elif not found.any():
         return None
-    ys, xs, k, delta, qy, qx = ys[found], xs[found], k[found], delta[found], qy[found], qx[found]
-    d = d[found]
+    else:
+        ys, xs, k, delta, qy, qx = (a[found] for a in (ys, xs, k, delta, qy, qx))
+        d = d[found]
     # Where the other neighbour would see it too (confirmed(): two views that agree), in
     # a frame with an object moving on its own (``lone``; without one, a near object
     # the flow follows -- a finger passing the lens -- can show in both).
