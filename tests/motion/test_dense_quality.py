@@ -127,7 +127,7 @@ def test_background_a_near_pole_uncovered_comes_from_the_neighbour_that_saw_it(m
     import unjello.neighbour_fill as neighbour_fill
 
     now = run("rocket", 0.25, 0.4, 10, (320, 180), near=1.3)
-    monkeypatch.setattr(neighbour_fill, "uncovered", lambda *a: None)
+    monkeypatch.setattr(neighbour_fill, "uncovered", lambda *a, **k: None)
     before = run("rocket", 0.25, 0.4, 10, (320, 180), near=1.3)
     assert now["out_interior"] > before["out_interior"] + 1.0, (before, now)
     assert now["out_frame"] > before["out_frame"] + 1.2, (before, now)
