@@ -68,6 +68,9 @@ MAX_OBJECTS = 6
 #: frame's edge 1.9); poles the flow lost 4.5-8.3, where rotations of a turn a frame were
 #: fitted and one was used (``docs/measurements.md``).
 MAX_ELONGATION = 3.0
+#: Pixels around the failed flow (the seeds) that a drift is fitted on again where none
+#: explains an object's whole hull (:func:`keep_spinning`).
+TIGHT = 4
 #: Seen from one side only, a drift is taken only where it points the way the motion
 #: around the object does (the cosine of their angle at least this): a nearer object in
 #: a pan (parallax). One side alone lets a flat region match a drift backwards.
@@ -328,7 +331,8 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
 
     Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px, the
     :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`;
-    seen from one side only, along the motion around it): one that it explains
+    where none explains its hull, again on its pixels within :data:`TIGHT` of the
+    seeds; seen from one side only, along the motion around it): one that it explains
     ``min_gain`` times better than the motion around it, and moves a pixel or more a
     frame, is an object moving on its own (a near pole the flow could not follow) and
     takes that drift as a rotation would (below). Without ``rotations`` that is all;
@@ -382,6 +386,15 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         # it is taken before any rotation is searched; seen from one side, only along the
         # motion around it (:data:`ALONG`).
         spin = fit_drift(image, others, region, track, t_ref, readout)
+        if spin is None:
+            # A hull that joined other unexplained pieces (a suit's edges beside a pole)
+            # is mostly what the surroundings' motion explains: again on its pixels near
+            # the failed flow.
+            size = 2 * TIGHT + 1
+            tight = region & cv2.dilate(seeds.astype(np.uint8), np.ones((size, size),
+                                                                         np.uint8)).astype(bool)
+            if min_area / 2 <= tight.sum() < region.sum() / 2:
+                spin = fit_drift(image, others, tight, track, t_ref, readout)
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
