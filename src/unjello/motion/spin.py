@@ -331,10 +331,10 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
 
     Each object around the ``seeds`` (:func:`spin_regions`, at least ``min_area`` px, the
     :data:`MAX_OBJECTS` largest) is first fitted a velocity of its own (:func:`fit_drift`;
-    where none explains its hull, again on its pixels within :data:`TIGHT` of the
-    seeds; seen from one side only, along the motion around it): one that it explains
-    ``min_gain`` times better than the motion around it, and moves a pixel or more a
-    frame, is an object moving on its own (a near pole the flow could not follow) and
+    where none explains its hull ``steady_gain`` times better than the motion around
+    it, again on its pixels within :data:`TIGHT` of the seeds; seen from one side only,
+    along the motion around it): one that it explains ``min_gain`` times better than the
+    motion around it, and moves a pixel or more a frame, is an object moving on its own (a near pole the flow could not follow) and
     takes that drift as a rotation would (below). Without ``rotations`` that is all;
     otherwise the others are fitted a rotation (:func:`fit_spin`, from the ``hints``
     first, then by a full search; then again on the pixels its rotation explains, leaving
@@ -386,15 +386,15 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         # it is taken before any rotation is searched; seen from one side, only along the
         # motion around it (:data:`ALONG`).
         spin = fit_drift(image, others, region, track, t_ref, readout)
-        if spin is None:
+        if spin is None or spin.gain < steady_gain:
             # A hull that joined other unexplained pieces (a suit's edges beside a pole)
-            # is mostly what the surroundings' motion explains: again on its pixels near
-            # the failed flow.
+            # is mostly what the surroundings' motion explains, and no drift (or a weak
+            # one) fits it: again on its pixels near the failed flow.
             size = 2 * TIGHT + 1
             tight = region & cv2.dilate(seeds.astype(np.uint8), np.ones((size, size),
                                                                          np.uint8)).astype(bool)
             if min_area / 2 <= tight.sum() < region.sum() / 2:
-                spin = fit_drift(image, others, tight, track, t_ref, readout)
+                spin = fit_drift(image, others, tight, track, t_ref, readout) or spin
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
