@@ -334,11 +334,12 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     where none explains its hull ``steady_gain`` times better than the motion around
     it, again on its pixels within :data:`TIGHT` of the seeds; seen from one side only,
     along the motion around it): one that it explains ``min_gain`` times better than the
-    motion around it, and moves a pixel or more a frame, is an object moving on its own (a near pole the flow could not follow) and
-    takes that drift as a rotation would (below). Without ``rotations`` that is all;
-    otherwise the others are fitted a rotation (:func:`fit_spin`, from the ``hints``
-    first, then by a full search; then again on the pixels its rotation explains, leaving
-    out the background seen through the object). It is used when it matches the
+    motion around it, and moves a pixel or more a frame, is an object moving on its own
+    (a near pole the flow could not follow) and takes that drift as a rotation would
+    (below). Without ``rotations`` that is all; otherwise the others are fitted a
+    rotation (:func:`fit_spin`, from the ``hints`` first, then by a full search; then
+    again on the pixels its rotation explains, leaving out the background seen through
+    the object). It is used when it matches the
     neighbours at least ``min_gain`` times better than the motion around it -- or
     ``steady_gain`` times when the previous frame found the same rotation (``hints``:
     within 15 % and a quarter of the radius) -- and turns its rim by a pixel or more per
