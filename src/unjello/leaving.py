@@ -285,8 +285,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     cols = np.arange(pw)
     s_rows = ((np.arange(ph) + 0.5) / sy - 0.5)[:, None]
     for obj in objects:
-        vx, vy = obj.velocity
-        reach = vx * ((s_rows - vy * reference_row * k) / (1.0 - vy * k) - reference_row) * k
+        reach = _source(np.zeros(1), s_rows, obj.velocity, reference_row, k)[0]
         edge = ((gw - 0.5 if obj.side > 0 else -0.5) - reach + 0.5) * sx - 0.5
         wider |= cols >= edge if obj.side > 0 else cols <= edge
     for p in parts:
@@ -307,8 +306,7 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     least = 2 * RUN * sx * sy  # plane pixels: a band two grid pixels wide, RUN rows high
     for obj in objects:
         vx, vy = obj.velocity
-        s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
-        s_x = gx + vx * (s_y - reference_row) * k
+        s_x, s_y = _source(gx, gy, obj.velocity, reference_row, k)
         if first:
             assert own is not None
             look = np.median(sample_points(own, (obj.cols + 0.5) * sx - 0.5,
@@ -343,8 +341,8 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
             for i in range(len(offsets)):
                 at_i = idx[ks[idx] == i]
                 if at_i.size:  # (not at the object's blurred outline either)
-                    far = np.min([_unlike(planes[i], look, nx[at_i] + d * sx, ny[at_i])
-                                  for d in (-MISSED, 0.0, MISSED)], axis=0) > ALIKE
+                    far = _unlike_near(planes[i], look, nx[at_i], ny[at_i],
+                                       MISSED * sx) > ALIKE
                     reread[at_i[far]] = True
         else:
             reread = near & (at == _REREAD)
@@ -412,10 +410,9 @@ def _behind(near: np.ndarray, ks: np.ndarray, nx: np.ndarray, ny: np.ndarray,
     k = readout / gh
     step = np.asarray(steps, np.float64)[ks[idx]]
     reads = []
-    for vx, vy in (obj.velocity, obj.behind):
-        s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
-        reads.append((gx + vx * ((s_y - reference_row) * k + step),
-                      (s_y + vy * step).clip(0, gh - 1)))
+    for v in (obj.velocity, obj.behind):
+        s_x, s_y = _source(gx, gy, v, reference_row, k)
+        reads.append((s_x + v[0] * step, (s_y + v[1] * step).clip(0, gh - 1)))
     (ox, _), (bx, by) = reads
     read = (nx[idx] + 0.5) / sx - 0.5
     move = (np.abs(read - ox) < np.abs(read - bx)) & (bx >= -0.5) & (bx <= gw - 0.5)
@@ -423,6 +420,24 @@ def _behind(near: np.ndarray, ks: np.ndarray, nx: np.ndarray, ny: np.ndarray,
     nx[idx] = (bx[move] + 0.5) * sx - 0.5
     ny[idx] = (by[move] + 0.5) * sy - 0.5
     return idx
+
+
+def _source(gx: np.ndarray, gy: np.ndarray, velocity: tuple[float, float],
+            reference_row: float, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return where this frame read a point shown at ``(gx, gy)`` at the reference time.
+
+    The point moves at ``velocity``: ``s = p + v tau(s_y)``, ``tau = (s_y - reference_row)
+    k`` (grid pixels; ``k`` the readout a grid row).
+    """
+    vx, vy = velocity
+    s_y = (gy - vy * reference_row * k) / (1.0 - vy * k)
+    return gx + vx * (s_y - reference_row) * k, s_y
+
+
+def _unlike_near(plane: np.ndarray, look: np.ndarray, x: np.ndarray, y: np.ndarray,
+                 reach: float) -> np.ndarray:
+    """Return the least :func:`_unlike` at ``(x, y)`` and ``reach`` either side along x."""
+    return np.min([_unlike(plane, look, x + d, y) for d in (-reach, 0.0, reach)], axis=0)
 
 
 def _unlike(plane: np.ndarray, look: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -448,8 +463,8 @@ def _overtaken(plane: np.ndarray, look: np.ndarray, nx: np.ndarray, ny: np.ndarr
     sx, sy = scale
     inside = (lx >= -0.5) & (lx <= gw - 0.5)
     shows = _unlike(plane, look, nx, ny)
-    other = np.min([_unlike(plane, look, (lx + d + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5)
-                    for d in (-MISSED, 0.0, MISSED)], axis=0)
+    other = _unlike_near(plane, look, (lx + 0.5) * sx - 0.5, (ly + 0.5) * sy - 0.5,
+                         MISSED * sx)
     return inside & (other > 3 * ALIKE) & (
         shows <= np.maximum(ALIKE, np.minimum(other / 2, 3 * ALIKE)))
 

@@ -144,9 +144,10 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
     # Uncovered where the background's source in this frame moves otherwise.
     there = sample_points(field, xs + d[:, 0], ys + d[:, 1])
     hidden = np.abs(((there - d) * along).sum(axis=1)) > SETTLED
-    seen = ~hidden & (xs + d[:, 0] >= -0.5) & (xs + d[:, 0] <= w - 0.5) & (
-        ys + d[:, 1] >= -0.5) & (ys + d[:, 1] <= h - 0.5) if here else np.zeros(0, bool)
-    mine_here = tuple(a[seen] for a in (ys, xs, d, qy, qx)) if here else None
+    mine_here = None
+    if here:
+        seen = ~hidden & _inside(xs + d[:, 0], ys + d[:, 1], (h, w))
+        mine_here = tuple(a[seen] for a in (ys, xs, d, qy, qx))
     ys, xs, d, qy, qx = ys[hidden], xs[hidden], d[hidden], qy[hidden], qx[hidden]
     late = ys + d[:, 1] >= reference_row  # its row, read after the reference
     k = np.full(ys.size, -1)
@@ -165,10 +166,7 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
                 mine = mine[k[mine] < 0]
             if not mine.size:
                 continue
-            n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]],
-                                        my[qy[mine], qx[mine]])
-            nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
-            ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+            ok, n = _read(flows[i], maps, ys[mine], xs[mine], qy[mine], qx[mine], d[mine])
             k[mine[ok]] = i
             delta[mine[ok]] = n[ok]
     found = k >= 0
@@ -194,13 +192,28 @@ def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: lis
             mine = np.flatnonzero(k == 1 - i)
             if not mine.size:
                 continue
-            n = d[mine] + sample_points(flows[i], mx[qy[mine], qx[mine]],
-                                        my[qy[mine], qx[mine]])
-            nx, ny = xs[mine] + n[:, 0], ys[mine] + n[:, 1]
-            ok = (nx >= -0.5) & (nx <= w - 0.5) & (ny >= -0.5) & (ny <= h - 0.5)
+            ok, n = _read(flows[i], maps, ys[mine], xs[mine], qy[mine], qx[mine], d[mine])
             k2[mine[ok]] = i
             delta2[mine[ok]] = n[ok]
     return ys, xs, k, delta, qy, qx, k2, delta2
+
+
+def _inside(x: np.ndarray, y: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Which points ``(x, y)`` (pixels of a grid of ``shape``) lie inside it."""
+    h, w = shape
+    return (x >= -0.5) & (x <= w - 0.5) & (y >= -0.5) & (y <= h - 0.5)
+
+
+def _read(flow: np.ndarray, maps: tuple[np.ndarray, np.ndarray], ys: np.ndarray,
+          xs: np.ndarray, qy: np.ndarray, qx: np.ndarray, d: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Where ``flow``'s neighbour shows the pixels ``(ys, xs)``, and whether it is inside.
+
+    The read, less the pixel: their donors' (``(qy, qx)``) displacement ``d`` plus the
+    flow at the donors' sources (``maps``).
+    """
+    n = d + sample_points(flow, maps[0][qy, qx], maps[1][qy, qx])
+    return _inside(xs + n[:, 0], ys + n[:, 1], maps[0].shape), n
 
 
 def uncovered_sources(found: tuple[np.ndarray, ...], grid: tuple[int, int],
