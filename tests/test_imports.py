@@ -14,6 +14,8 @@ Imports inside functions count: a lazy import is still a dependency.
 """
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -147,3 +149,14 @@ def test_modules_stay_one_job_sized():
              for p in SRC.rglob("*.py")}
     assert sizes["pipeline.py"] <= 500
     assert not {k: v for k, v in sizes.items() if v > 600}
+
+
+def test_importing_the_package_loads_what_it_uses():
+    # Public names are imported on first use: the command line sets up NumPy's threads
+    # before NumPy loads (unjello.__main__), and every public name still resolves.
+    code = ("import sys, unjello\nassert 'numpy' not in sys.modules\n"
+            "for name in unjello.__all__:\n    getattr(unjello, name)\n"
+            "assert sorted(dir(unjello)) == sorted(unjello.__all__)\n"
+            "print('ok')")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.stdout.strip() == "ok", res.stderr

@@ -12,26 +12,77 @@ See :mod:`unjello.timing` for the conventions of time, geometry and sign.
 
 from __future__ import annotations
 
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING
+
 __version__ = "0.1.0"
 
-from .batch import run_batch
-from .clip import ResolvedTiming, resolve_timing
-from .config import CorrectionConfig
-from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
-from .gyrolog import GyroConfig, GyroLog
-from .io.sidecars import read_gyro, write_gyro
-from .io.video import EncodeOptions
-from .metrics import evaluate
-from .motion.dense import DenseConfig, DenseMethod
-from .motion.global_motion import BlockMatchConfig
-from .motion.gyro import GyroMethod
-from .motion.paper import PaperConfig, PaperMethod
-from .motion.refine import RefineConfig
-from .pipeline import Corrector, correct_frames, correct_video
-from .readout import ReadoutEstimate, estimate_readout, estimate_readout_file, readout_from_flicker
-from .simulate import Motion, gyro_samples, simulate, simulate_clip
-from .timing import SensorTiming, parse_readout
-from .trajectory import FrameMotion, Trajectory
+if TYPE_CHECKING:
+    from .batch import run_batch
+    from .clip import ResolvedTiming, resolve_timing
+    from .config import CorrectionConfig
+    from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
+    from .gyrolog import GyroConfig, GyroLog
+    from .io.sidecars import read_gyro, write_gyro
+    from .io.video import EncodeOptions
+    from .metrics import evaluate
+    from .motion.dense import DenseConfig, DenseMethod
+    from .motion.global_motion import BlockMatchConfig
+    from .motion.gyro import GyroMethod
+    from .motion.paper import PaperConfig, PaperMethod
+    from .motion.refine import RefineConfig
+    from .pipeline import Corrector, correct_frames, correct_video
+    from .readout import (
+        ReadoutEstimate,
+        estimate_readout,
+        estimate_readout_file,
+        readout_from_flicker,
+    )
+    from .simulate import Motion, gyro_samples, simulate, simulate_clip
+    from .timing import SensorTiming, parse_readout
+    from .trajectory import FrameMotion, Trajectory
+
+_WHERE = {  # each public name and the module it lives in, imported on first use
+    "run_batch": ".batch",
+    "ResolvedTiming": ".clip",
+    "resolve_timing": ".clip",
+    "CorrectionConfig": ".config",
+    "InputError": ".errors",
+    "MissingExtraError": ".errors",
+    "OutputError": ".errors",
+    "SettingsError": ".errors",
+    "UnjelloError": ".errors",
+    "GyroConfig": ".gyrolog",
+    "GyroLog": ".gyrolog",
+    "read_gyro": ".io.sidecars",
+    "write_gyro": ".io.sidecars",
+    "EncodeOptions": ".io.video",
+    "evaluate": ".metrics",
+    "DenseConfig": ".motion.dense",
+    "DenseMethod": ".motion.dense",
+    "BlockMatchConfig": ".motion.global_motion",
+    "GyroMethod": ".motion.gyro",
+    "PaperConfig": ".motion.paper",
+    "PaperMethod": ".motion.paper",
+    "RefineConfig": ".motion.refine",
+    "Corrector": ".pipeline",
+    "correct_frames": ".pipeline",
+    "correct_video": ".pipeline",
+    "ReadoutEstimate": ".readout",
+    "estimate_readout": ".readout",
+    "estimate_readout_file": ".readout",
+    "readout_from_flicker": ".readout",
+    "Motion": ".simulate",
+    "gyro_samples": ".simulate",
+    "simulate": ".simulate",
+    "simulate_clip": ".simulate",
+    "SensorTiming": ".timing",
+    "parse_readout": ".timing",
+    "FrameMotion": ".trajectory",
+    "Trajectory": ".trajectory",
+}
 
 __all__ = [
     "__version__",
@@ -73,3 +124,35 @@ __all__ = [
     "simulate",
     "simulate_clip",
 ]
+
+
+def __getattr__(name: str) -> object:
+    """Import a public name's module on first use (PEP 562).
+
+    ``import unjello`` then costs what it uses: the command line can still choose how
+    many threads NumPy's BLAS starts (:mod:`unjello.cli`) before anything imports NumPy.
+    """
+    where = _WHERE.get(name)
+    if where is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(where, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+class _Package(types.ModuleType):
+    """The package's module: a subpackage imported later does not shadow a public name."""
+
+    def __setattr__(self, name: str, value: object) -> None:
+        # The import system sets a subpackage as its parent's attribute: ``unjello.simulate``
+        # stays the function, as it was when this file imported every name at once.
+        if isinstance(value, types.ModuleType) and name in _WHERE:
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
