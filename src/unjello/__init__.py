@@ -44,7 +44,9 @@ if TYPE_CHECKING:
     from .timing import SensorTiming, parse_readout
     from .trajectory import FrameMotion, Trajectory
 
-_WHERE = {  # each public name and the module it lives in, imported on first use
+#: Each public name and the module it lives in, imported on first use (the imports above
+#: are for type checkers only; ``__all__`` below stays a literal list for them too).
+_WHERE = {
     "run_batch": ".batch",
     "ResolvedTiming": ".clip",
     "resolve_timing": ".clip",
@@ -130,7 +132,7 @@ def __getattr__(name: str) -> object:
     """Import a public name's module on first use (PEP 562).
 
     ``import unjello`` then costs what it uses: the command line can still choose how
-    many threads NumPy's BLAS starts (:mod:`unjello.cli`) before anything imports NumPy.
+    many threads NumPy's BLAS starts (:mod:`unjello.__main__`) before anything imports NumPy.
     """
     where = _WHERE.get(name)
     if where is None:
