@@ -56,7 +56,10 @@ def _pan(pole: bool = True) -> dict:
         at = x - NEAR * t
         on = (at >= POLE[0]) & (at <= POLE[1])
         field[..., 0][on] = (NEAR * t)[on]
-    out["field"] = field
+    # (a measured field's error: the core is its fastest quartile, which on an exact
+    # field is decided by rounding, where tau is least)
+    out["field"] = field + np.random.default_rng(0).normal(0, 0.002, field.shape).astype(
+        np.float32)
     # This frame's flow to the previous: the background's everywhere (the flow lost the
     # flat pole, as DIS does; only the field, from the rigid fit, knows its motion).
     flow = np.zeros((H, W, 2), np.float32)
@@ -72,12 +75,30 @@ def test_edge_objects_find_the_pole_touching_the_side_and_its_velocity():
     assert obj.side == 1
     assert abs(obj.velocity[0] - NEAR) < 0.5 and abs(obj.velocity[1]) < 0.1
     assert abs(obj.behind[0] - BACK) < 0.5
-    assert obj.rows.min() >= 71 and obj.rows.max() <= 84  # where it crosses column 76
+    assert obj.rows.min() >= 67 and obj.rows.max() <= 84  # where it crosses the band
     # A plain pan has none; nor does a background that does not move as one.
     assert edge_objects(_pan(pole=False)["field"], 1.0, REF) == []
     uneven = _pan()["field"]
     uneven[..., 0] *= np.linspace(0.5, 1.5, W)[None, :]
     assert edge_objects(uneven, 1.0, REF) == []
+
+
+def test_edge_objects_find_a_pole_leaving_just_after_the_reference_row():
+    # A pole crossing the side in the rows read 0.07-0.16 of the readout after the
+    # reference (as in the astronaut 25 %/1.0 clip's frame 3): with NEAR_REFERENCE 0.1
+    # too few rows were left to measure it, and it was not found.
+    y, x = np.mgrid[0:H, 0:W].astype(np.float32)
+    t = _tau(y)
+    field = np.zeros((H, W, 2), np.float32)
+    field[..., 0] = BACK * t
+    at = x - NEAR * t  # the pole's reference position seen at (x, y)
+    on = (at >= 71.0) & (at <= 74.0)
+    field[..., 0][on] = (NEAR * t)[on]
+    field += np.random.default_rng(0).normal(0, 0.05, field.shape).astype(np.float32)
+    objs = edge_objects(field, 1.0, REF)
+    assert len(objs) == 1 and objs[0].side == 1
+    assert abs(objs[0].velocity[0] - NEAR) < 1.0
+    assert objs[0].rows.min() >= REF + 0.07 * H - 1
 
 
 def test_settled_objects_correct_the_velocity_and_drop_what_a_flat_scene_matches():
@@ -102,8 +123,8 @@ def test_the_warper_carries_the_pole_beyond_the_edge_from_the_previous_frame():
     rows = slice(100, H - 2)  # read after the pole left the frame
     # Its middle, and 3 of its 5 columns in every row (where the previous frame's sample
     # blends the pole's edge with the background, it is not taken as the pole).
-    assert np.all(out[rows, 72] == 250.0)
-    assert np.all((out[rows, 69:76] == 250.0).sum(axis=1) >= 3)
+    assert np.all(out[rows, 72] >= 245.0)  # (the texture is 40-160, the pole 250)
+    assert np.all((out[rows, 69:76] >= 245.0).sum(axis=1) >= 3)
     # The chroma plane follows (the texture is 40-160: only the pole is brighter).
     assert np.all(u[50:59, 34:38].max(axis=1) > 180.0)
     # Beside it, the background the previous frame saw (as without the pole's motion).

@@ -24,7 +24,7 @@ __all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
 
 #: Rows of the field within this share of the readout of the reference scanline do not
 #: measure an object's velocity (its displacement there is near zero whatever it is).
-NEAR_REFERENCE = 0.1
+NEAR_REFERENCE = 0.07
 #: An object at the side moves faster than its row's background by this share of the
 #: background's speed at least (and by 2 px of the grid a frame): nearer, in a pan.
 FASTER = 0.1
