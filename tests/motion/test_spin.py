@@ -6,7 +6,7 @@ import pytest
 from skimage import data
 
 from unjello.motion.safety import failed_blobs
-from unjello.motion.spin import fit_spin, keep_spinning, spin_field
+from unjello.motion.spin import _edged, fit_spin, keep_spinning, spin_field
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
@@ -97,3 +97,22 @@ def test_the_source_of_a_rotation_inverts_its_correction():
                    cv2.INTER_LINEAR)
     assert np.abs(p[..., 0] + bx - xs).max() < 0.02
     assert np.abs(p[..., 1] + by - ys).max() < 0.02
+
+
+def test_a_flat_patch_is_no_object_to_fit_a_motion_to():
+    # Sky beside a near pole: unexplained by the motion around it (a neighbour shows the
+    # pole there), matched by a drift that carries it past the pole, but with no edge of
+    # its own (the rocket 25 %/1.0 clip's frame 5: a band fitted (-37, -12) px a frame,
+    # in front of the pole's bottom). The pole's own support has its outline.
+    rng = np.random.default_rng(1)
+    sky = np.linspace(40, 80, 120, dtype=np.float32)[:, None] + rng.normal(
+        0, 1.0, (120, 160)).astype(np.float32)
+    img = sky.copy()
+    img[:, 70:80] = 250.0
+    band = np.zeros(img.shape, bool)
+    band[:, 40:66] = True
+    assert not _edged(img, band)
+    pole = np.zeros(img.shape, bool)
+    pole[:, 68:82] = True
+    assert _edged(img, pole)
+    assert not _edged(img, np.zeros(img.shape, bool))
