@@ -105,9 +105,8 @@ def test_a_flat_patch_is_no_object_to_fit_a_motion_to():
     # its own (the rocket 25 %/1.0 clip's frame 5: a band fitted (-37, -12) px a frame,
     # in front of the pole's bottom). The pole's own support has its outline.
     rng = np.random.default_rng(1)
-    sky = np.linspace(40, 80, 120, dtype=np.float32)[:, None] + rng.normal(
+    img = np.linspace(40, 80, 120, dtype=np.float32)[:, None] + rng.normal(
         0, 1.0, (120, 160)).astype(np.float32)
-    img = sky.copy()
     img[:, 70:80] = 250.0
     band = np.zeros(img.shape, bool)
     band[:, 40:66] = True

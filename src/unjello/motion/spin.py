@@ -326,11 +326,16 @@ def _edged(image: np.ndarray, support: np.ndarray) -> bool:
     neighbour shows the pole there) and a drift that carries it past the pole in both
     neighbours matches it, backwards or not; an object's own pixels have its outline.
     """
-    if not support.any():
+    ys, xs = np.nonzero(support)
+    if not ys.size:
         return False
-    grad = np.hypot(cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3),
-                    cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3))
-    return bool(np.mean(grad[support] >= EDGE) >= EDGED)
+    # (on the support's box and a pixel around it: the Sobel's reach)
+    y0, x0 = max(0, ys.min() - 1), max(0, xs.min() - 1)
+    box = np.s_[y0:ys.max() + 2, x0:xs.max() + 2]
+    part = np.ascontiguousarray(image[box], np.float32)
+    grad = np.hypot(cv2.Sobel(part, cv2.CV_32F, 1, 0, ksize=3),
+                    cv2.Sobel(part, cv2.CV_32F, 0, 1, ksize=3))
+    return bool(np.mean(grad[support[box]] >= EDGE) >= EDGED)
 
 
 def _along(drift: np.ndarray, behind: np.ndarray) -> bool:
@@ -451,7 +456,7 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
             if not good(spin) or abs(spin.omega) * radius < 1.0:
                 continue
         weight = spin_support(image, others, region, spin, track, t_ref, readout)
-        if not _edged(image, weight > 0.5) and (spin.omega or not _along(spin.drift, behind)):
+        if (spin.omega or not _along(spin.drift, behind)) and not _edged(image, weight > 0.5):
             continue  # a flat patch: a motion "explains" it by missing what covers it
         if (weight > 0.5).sum() >= WHOLE * region.sum():
             weight = cv2.GaussianBlur(region.astype(np.float32), (0, 0), 1.0)
