@@ -16,7 +16,7 @@ from unjello.motion.field import (
     projective_flow,
     snap_to_global,
 )
-from unjello.motion.flow import patch_cost
+from unjello.motion.patches import patch_cost
 from unjello.timing import pixel_grid
 
 

@@ -60,6 +60,7 @@ from .field import (
     snap_to_global,
 )
 from .flow import (
+    LARGE_MOTION,
     FlowSettings,
     flow_pair,
     half_row_flows,
@@ -79,12 +80,27 @@ from .vibration import (
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
+#: A pair whose flow's translation strays from the pace of the pair before by more than
+#: this share of it is measured again from that pace (:meth:`DenseMethod._steady`).
+STRAY = 0.25
+
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
     flow = optical_flow(cur, prev, preset, max_width, finest_scale)
     return flow, landing(flow)[2]
+
+
+def _translation(flow: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """Return the median ``(dx, dy)`` of a flow on its reliable pixels (all, if under 10 %).
+
+    On every fourth pixel each way: a median of the whole working grid costs ms a pair.
+    """
+    sub, good = flow[::4, ::4].reshape(-1, 2), ok[::4, ::4].ravel()
+    if good.mean() >= 0.1:
+        sub = sub[good]
+    return np.median(sub, axis=0).astype(np.float64)
 
 
 class DenseMethod(SafeField):
@@ -203,14 +219,16 @@ class DenseMethod(SafeField):
         """
         while self._pending:
             prev, cur, job = self._pending[0]
+            fresh = isinstance(job, Future)
             if isinstance(job, Future):
                 if len(self._pending) <= keep and not job.done():
                     return
                 job = job.result()
-                if self.config.per_pixel:
-                    self._keep_flows(prev, cur, job)
             self._pending.popleft()
             if self.config.per_pixel:
+                job = self._steady(prev, cur, job)
+                if fresh:
+                    self._keep_flows(prev, cur, job)
                 cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
             else:
                 cur.bwd, cur.bwd_ok = job
@@ -223,6 +241,31 @@ class DenseMethod(SafeField):
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
+
+    def _steady(self, prev: DenseFrame, cur: DenseFrame, job: tuple) -> tuple:
+        """Return a pair's flows, measured again from the last pair's pace if they lost it.
+
+        A camera keeps its pace from one frame to the next. Where the pair before moved
+        fast (:data:`~unjello.motion.flow.LARGE_MOTION`) and this pair's flow (its median
+        translation) strays from that pace by more than :data:`STRAY` of it, the flow is
+        measured again starting from the pace too (:func:`~unjello.motion.flow.flow_pair`'s
+        ``expect``), which is used where it matches the pair better: over a flat sky with
+        a pole, the phase correlation and DIS lost a pan of 40 % of the width a frame that
+        the pairs on either side followed (``docs/measurements.md``).
+        """
+        dt = cur.start - prev.start
+        if dt <= 0:
+            return job
+        shift = _translation(job[0], job[1])
+        if prev.pace is not None and cur.settings is not None:
+            expect = prev.pace * dt
+            size = float(np.hypot(*expect))
+            if (size >= LARGE_MOTION * cur.image.shape[1]
+                    and float(np.hypot(*(shift - expect))) > STRAY * size):
+                job = flow_pair(prev.image, cur.image, cur.settings, expect=expect)
+                shift = _translation(job[0], job[1])
+        cur.pace = shift / dt
+        return job
 
     def _keep_flows(self, prev: DenseFrame, cur: DenseFrame, job: tuple) -> None:
         """Keep a pair's measured flows for the caller's other methods (if it keeps them)."""

@@ -88,7 +88,7 @@ class DenseConfig:
         way to the reference time, instead of a constant velocity per pixel.
     edge_refine : bool
         Near motion boundaries, give each pixel the flow of the side it matches
-        (:func:`~unjello.motion.flow.refine_motion_edges`; per-pixel mode only).
+        (:func:`~unjello.motion.patches.refine_motion_edges`; per-pixel mode only).
     snap_window : int
         Pixels whose neighbourhood the frame's global (projective) motion explains as well
         as their own flow take the global motion

@@ -72,6 +72,7 @@ class DenseFrame:
     bwd_ok: np.ndarray | None = None
     fwd_ok: np.ndarray | None = None
     settings: FlowSettings | None = None  # of the flow to the previous frame
+    pace: np.ndarray | None = None  # its flow to the previous frame's translation a frame
 
     @property
     def contrast(self) -> float:

@@ -15,7 +15,7 @@ import numpy as np
 from ..kernels import quadratic_ahead
 from ..kernels_field import fill_from_weights, projective_maps
 from ..timing import pixel_grid
-from .flow import map_cost
+from .patches import map_cost
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
            "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",

@@ -1,9 +1,9 @@
 """The optical-flow toolkit shared by the dense method, the gyro calibration and the readout.
 
 DIS optical flow (OpenCV) between two grey frames, its forward-backward consistency
-check, its inversion, where it lands, the dominant flow of each row, and the sharpening
-of flow at motion boundaries. Sign: a flow ``F`` from ``a`` to ``b`` has
-``a(s) ~ b(s + F(s))`` (see :mod:`unjello.timing`).
+check, its inversion, where it lands and the dominant flow of each row (the patches'
+costs and the sharpening at motion boundaries: :mod:`unjello.motion.patches`). Sign: a
+flow ``F`` from ``a`` to ``b`` has ``a(s) ~ b(s + F(s))`` (see :mod:`unjello.timing`).
 """
 
 from __future__ import annotations
@@ -18,10 +18,11 @@ from ..errors import SettingsError
 from ..kernels import consistency, shorth_sorted
 from ..kernels_field import grid_plus
 from ..timing import pixel_grid
+from .patches import patch_cost, refine_motion_edges
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
-           "consistent", "row_flows", "half_row_flows", "invert_flow", "patch_cost", "map_cost",
-           "refine_motion_edges", "flow_pair", "explains", "misses"]
+           "consistent", "row_flows", "half_row_flows", "invert_flow", "flow_pair", "explains",
+           "misses"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -151,13 +152,17 @@ def _polisher(iterations: int) -> cv2.VariationalRefinement:
 
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  max_width: int = 960, finest_scale: int | None = None,
-                 refinement: int | None = None, polish: int = 0) -> np.ndarray:
+                 refinement: int | None = None, polish: int = 0,
+                 expect: np.ndarray | None = None) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
     Where the frame's global translation (:func:`global_shift`) is large
     (:data:`LARGE_MOTION`), DIS runs a second time starting from it, and each pixel keeps
     the run whose flow matches ``b`` better over a patch around it: a whip pan over grass
-    or brick is then followed instead of an alias of its texture.
+    or brick is then followed instead of an alias of its texture. With ``expect`` (a
+    translation the neighbouring pair measured), DIS runs again from it too, used where
+    it matches ``b`` better over the frame as a whole, then pixel by pixel: over a flat
+    sky the phase correlation can miss a fast pan the pairs around follow.
 
     Parameters
     ----------
@@ -177,6 +182,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         (``cv2.VariationalRefinement``) on the (downscaled) frames' full resolution: DIS
         at finest scale 1 so polished costs half of DIS at scale 0, for 0.1 dB on the
         research pairs (``docs/measurements.md``).
+    expect : ndarray of shape (2,), optional
+        A translation ``(dx, dy)`` (full-resolution pixels) to start DIS from as well.
 
     Returns
     -------
@@ -202,6 +209,11 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         again = _engine(preset, finest_scale, refinement, started=True)
         flow = _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start),
                              whole=response < _SHIFT_RESPONSE)
+    if expect is not None:
+        start = np.empty_like(flow)
+        start[...] = np.asarray(expect, np.float32) * scale
+        again = _engine(preset, finest_scale, refinement, started=True)
+        flow = _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start), whole=True)
     if polish > 0:
         _polisher(polish).calc(a8, b8, flow)
     if scale < 1.0:
@@ -390,89 +402,6 @@ def _inverse_miss(flow: np.ndarray, inv: np.ndarray, xs: np.ndarray, ys: np.ndar
     return np.hypot(inv[..., 0] + back[..., 0], inv[..., 1] + back[..., 1]), out
 
 
-def patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarray,
-                flow: np.ndarray, window: int) -> np.ndarray:
-    """Mean absolute difference of ``cur`` and ``other`` moved by ``flow``, over square patches.
-
-    ``gx, gy`` are the pixel coordinates of ``cur`` in ``other`` without motion (a crop's
-    offset included).
-    """
-    return map_cost(cur, other, gx + flow[..., 0], gy + flow[..., 1], window)
-
-
-def map_cost(cur: np.ndarray, other: np.ndarray, map_x: np.ndarray, map_y: np.ndarray,
-             window: int) -> np.ndarray:
-    """Mean absolute difference of ``cur`` and ``other`` at ``(map_x, map_y)``, over patches."""
-    warped = cv2.remap(other, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
-
-
-def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
-                        spread: float = 2.0, radii: tuple[int, ...] = (3, 8),
-                        window: int = 5) -> np.ndarray:
-    """Give pixels near a motion boundary the flow of the side they belong to.
-
-    DIS smooths the flow across the edge of a nearer layer or a moving object, so the
-    pixels of the background next to it move partly with it (and the other way round).
-    Where the flow varies by more than ``spread`` px within 9x9 pixels, each pixel may
-    take the flow found ``radii`` px away in one of eight directions, if that flow
-    matches the previous frame better over a ``window`` x ``window`` patch (sum of
-    absolute differences of the warped previous frame). Cost: nothing where there are
-    no boundaries (measurements: ``docs/tuning.md``).
-
-    Parameters
-    ----------
-    cur, prev : ndarray of shape (h, w), float32
-        The frame and the one the flow points to.
-    flow : ndarray of shape (h, w, 2), float32
-        Flow from ``cur`` to ``prev`` (``cur(s) ~ prev(s + flow(s))``).
-
-    Returns
-    -------
-    ndarray of shape (h, w, 2), float32
-    """
-    kernel = np.ones((9, 9), np.uint8)
-    edge = np.zeros(flow.shape[:2], dtype=bool)
-    for k in range(2):
-        f = flow[..., k]
-        edge |= (cv2.dilate(f, kernel) - cv2.erode(f, kernel)) > spread
-    if not edge.any():
-        return flow
-    # Work on the rows and columns around the boundaries only.
-    pad = max(radii) + window
-    ys, xs = np.nonzero(edge)
-    h, w = flow.shape[:2]
-    y0, y1 = max(0, ys.min() - pad), min(h, ys.max() + pad + 1)
-    x0, x1 = max(0, xs.min() - pad), min(w, xs.max() + pad + 1)
-    crop = (slice(y0, y1), slice(x0, x1))
-    fl, here, near = flow[crop], cur[crop], edge[crop]
-    ch, cw = near.shape
-    gx, gy = pixel_grid(ch, cw, y0, x0)
-
-    def cost(f: np.ndarray) -> np.ndarray:
-        return patch_cost(here, prev, gx, gy, f, window)
-
-    # Candidate 0 is the pixel's own flow; ties keep it.
-    offsets = [(0, 0)] + [(dx * r, dy * r) for r in radii
-                          for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1),
-                                         (1, 1), (1, -1), (-1, 1), (-1, -1))]
-    padded = cv2.copyMakeBorder(fl, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
-    best_cost = cost(fl)
-    pick = np.zeros((ch, cw), np.int64)
-    for i, (ox, oy) in enumerate(offsets[1:], start=1):  # one candidate held at a time
-        c = cost(padded[pad + oy:pad + oy + ch, pad + ox:pad + ox + cw])
-        better = near & (c < best_cost)
-        np.copyto(best_cost, c, where=better)
-        pick[better] = i
-    off = np.array(offsets)[pick]  # (ch, cw, 2)
-    src_y = np.clip(np.arange(ch)[:, None] + off[..., 1], 0, ch - 1)
-    src_x = np.clip(np.arange(cw)[None, :] + off[..., 0], 0, cw - 1)
-    best = fl[src_y, src_x]
-    out = flow.copy()
-    out[crop] = best
-    return out
-
-
 @dataclass(frozen=True)
 class FlowSettings:
     """How the flow between two frames is computed and checked (:func:`flow_pair`).
@@ -513,7 +442,8 @@ class FlowSettings:
 
 
 def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_width: int = 0,
-              two_way: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+              two_way: bool = False, expect: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Flows between two frames both ways, each with its forward-backward check.
 
     The flow from ``cur`` to ``prev`` is computed (DIS); the other way is its inverse
@@ -521,7 +451,8 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_wid
     research pairs). With ``two_way`` the other way is a second DIS flow: an independent
     check that rejects more wrong flow (the readout estimate needs it), at twice the cost.
     A flow that does not explain the pair (:func:`explains`) is measured again with the
-    settings' ``fallback``.
+    settings' ``fallback``. ``expect``: a translation of ``cur`` to ``prev`` to start the
+    flow from as well (:func:`optical_flow`).
 
     Returns
     -------
@@ -534,9 +465,9 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_wid
     refinement = settings.refinement if medium else None
     polish = settings.polish if medium else 0
     bwd = optical_flow(cur, prev, settings.preset, max_width, settings.finest_scale,
-                       refinement, polish)
+                       refinement, polish, expect)
     if settings.fallback is not None and not explains(prev, cur, bwd):
-        return flow_pair(prev, cur, settings.fallback, max_width, two_way)
+        return flow_pair(prev, cur, settings.fallback, max_width, two_way, expect)
     if settings.edge_refine:
         bwd = refine_motion_edges(np.asarray(cur, np.float32), np.asarray(prev, np.float32),
                                   bwd)

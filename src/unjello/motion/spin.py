@@ -247,6 +247,16 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     rot = np.zeros((h, w), np.float32)
     still = np.zeros((h, w), np.float32)
     rot[ys, xs], still[ys, xs] = both
+    if len(others) >= 2 and not spin.omega:
+        # What is behind a passing object may be covered on one side: where it shows
+        # edges, the surroundings' motion scored by the side that sees it best. (Not
+        # for a rotation: a spinner's arm matches another arm on one side.)
+        sides = [costs(image, [o], pts, spin.centre[None], np.zeros(1), track, t_ref,
+                       readout / h)[0] for o in others]
+        img = np.ascontiguousarray(image, np.float32)
+        grad = np.hypot(cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3),
+                        cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3))[ys, xs]
+        still[ys, xs] = np.where(grad >= EDGE, np.minimum.reduce(sides), both[1])
     box = (window, window)
     better = ((cv2.boxFilter(rot, -1, box) < cv2.boxFilter(still, -1, box)) & region)
     # One piece: gaps and small holes inside the object (a flat patch matches either

@@ -1,0 +1,99 @@
+"""Flows scored over patches, and sharpened at motion boundaries.
+
+The photometric cost of a flow (or any map) over square patches -- what picks between
+two flows, between the flow and the global motion, and between the flows of the two
+sides of a motion boundary, which DIS smooths across
+(:func:`refine_motion_edges`). Sign as in :mod:`unjello.motion.flow`.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..timing import pixel_grid
+
+__all__ = ["patch_cost", "map_cost", "refine_motion_edges"]
+
+
+def patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarray,
+                flow: np.ndarray, window: int) -> np.ndarray:
+    """Mean absolute difference of ``cur`` and ``other`` moved by ``flow``, over square patches.
+
+    ``gx, gy`` are the pixel coordinates of ``cur`` in ``other`` without motion (a crop's
+    offset included).
+    """
+    return map_cost(cur, other, gx + flow[..., 0], gy + flow[..., 1], window)
+
+
+def map_cost(cur: np.ndarray, other: np.ndarray, map_x: np.ndarray, map_y: np.ndarray,
+             window: int) -> np.ndarray:
+    """Mean absolute difference of ``cur`` and ``other`` at ``(map_x, map_y)``, over patches."""
+    warped = cv2.remap(other, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return cv2.boxFilter(cv2.absdiff(warped, cur), -1, (window, window))
+
+
+def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
+                        spread: float = 2.0, radii: tuple[int, ...] = (3, 8),
+                        window: int = 5) -> np.ndarray:
+    """Give pixels near a motion boundary the flow of the side they belong to.
+
+    DIS smooths the flow across the edge of a nearer layer or a moving object, so the
+    pixels of the background next to it move partly with it (and the other way round).
+    Where the flow varies by more than ``spread`` px within 9x9 pixels, each pixel may
+    take the flow found ``radii`` px away in one of eight directions, if that flow
+    matches the previous frame better over a ``window`` x ``window`` patch (sum of
+    absolute differences of the warped previous frame). Cost: nothing where there are
+    no boundaries (measurements: ``docs/tuning.md``).
+
+    Parameters
+    ----------
+    cur, prev : ndarray of shape (h, w), float32
+        The frame and the one the flow points to.
+    flow : ndarray of shape (h, w, 2), float32
+        Flow from ``cur`` to ``prev`` (``cur(s) ~ prev(s + flow(s))``).
+
+    Returns
+    -------
+    ndarray of shape (h, w, 2), float32
+    """
+    kernel = np.ones((9, 9), np.uint8)
+    edge = np.zeros(flow.shape[:2], dtype=bool)
+    for k in range(2):
+        f = flow[..., k]
+        edge |= (cv2.dilate(f, kernel) - cv2.erode(f, kernel)) > spread
+    if not edge.any():
+        return flow
+    # Work on the rows and columns around the boundaries only.
+    pad = max(radii) + window
+    ys, xs = np.nonzero(edge)
+    h, w = flow.shape[:2]
+    y0, y1 = max(0, ys.min() - pad), min(h, ys.max() + pad + 1)
+    x0, x1 = max(0, xs.min() - pad), min(w, xs.max() + pad + 1)
+    crop = (slice(y0, y1), slice(x0, x1))
+    fl, here, near = flow[crop], cur[crop], edge[crop]
+    ch, cw = near.shape
+    gx, gy = pixel_grid(ch, cw, y0, x0)
+
+    def cost(f: np.ndarray) -> np.ndarray:
+        return patch_cost(here, prev, gx, gy, f, window)
+
+    # Candidate 0 is the pixel's own flow; ties keep it.
+    offsets = [(0, 0)] + [(dx * r, dy * r) for r in radii
+                          for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1),
+                                         (1, 1), (1, -1), (-1, 1), (-1, -1))]
+    padded = cv2.copyMakeBorder(fl, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
+    best_cost = cost(fl)
+    pick = np.zeros((ch, cw), np.int64)
+    for i, (ox, oy) in enumerate(offsets[1:], start=1):  # one candidate held at a time
+        c = cost(padded[pad + oy:pad + oy + ch, pad + ox:pad + ox + cw])
+        better = near & (c < best_cost)
+        np.copyto(best_cost, c, where=better)
+        pick[better] = i
+    off = np.array(offsets)[pick]  # (ch, cw, 2)
+    src_y = np.clip(np.arange(ch)[:, None] + off[..., 1], 0, ch - 1)
+    src_x = np.clip(np.arange(cw)[None, :] + off[..., 0], 0, cw - 1)
+    best = fl[src_y, src_x]
+    out = flow.copy()
+    out[crop] = best
+    return out
