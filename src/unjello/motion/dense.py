@@ -86,9 +86,10 @@ STRAY = 0.25
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
-              finest_scale: int | None) -> tuple[np.ndarray, np.ndarray]:
+              finest_scale: int | None, expect: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
-    flow = optical_flow(cur, prev, preset, max_width, finest_scale)
+    flow = optical_flow(cur, prev, preset, max_width, finest_scale, expect=expect)
     return flow, landing(flow)[2]
 
 
@@ -225,8 +226,8 @@ class DenseMethod(SafeField):
                     return
                 job = job.result()
             self._pending.popleft()
+            job = self._steady(prev, cur, job)
             if self.config.per_pixel:
-                job = self._steady(prev, cur, job)
                 if fresh:
                     self._keep_flows(prev, cur, job)
                 cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
@@ -257,12 +258,16 @@ class DenseMethod(SafeField):
         if dt <= 0:
             return job
         shift = _translation(job[0], job[1])
-        if prev.pace is not None and cur.settings is not None:
+        if prev.pace is not None:
             expect = prev.pace * dt
             size = float(np.hypot(*expect))
             if (size >= LARGE_MOTION * cur.image.shape[1]
                     and float(np.hypot(*(shift - expect))) > STRAY * size):
-                job = flow_pair(prev.image, cur.image, cur.settings, expect=expect)
+                c = self.config
+                job = (flow_pair(prev.image, cur.image, cur.settings, expect=expect)
+                       if c.per_pixel and cur.settings is not None else
+                       _row_flow(cur.image, prev.image, c.flow_preset, 0, c.finest_scale,
+                                 expect))
                 shift = _translation(job[0], job[1])
         cur.pace = shift / dt
         return job
