@@ -5,7 +5,8 @@ away from, content that the frame's own scanlines never saw: the output pixels w
 true source lies outside the frame (the *strip*). A neighbouring frame saw most of it.
 This renders simulated clips (10 frames) and pairs (2 frames) at 10-40 % of the width a
 frame, readouts 0.4-1.0, with straight flat poles passing in front 1.3 times as near as
-the background (parallax; ``--near``; two poles' motions a frame apart at least, as one
+the background (parallax; ``--near``: 1 for none, 1.0001 for poles as far as the
+background, a flagpole against the sky; two poles' motions a frame apart at least, as one
 fence post could not be told from the next), and prints, per case, the PSNR (dB) against the
 global-shutter truth of:
 
@@ -181,7 +182,8 @@ def main() -> None:
     ap.add_argument("--size", default="320x180")
     ap.add_argument("--scenes", default="astronaut,rocket")
     ap.add_argument("--near", type=float, default=1.3,
-                    help="the poles' nearness (they move this times the background; 1: none)")
+                    help="the poles' nearness (they move this times the background; 1: none; "
+                         "1.0001: as far as the background)")
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
     print(f"{size[0]}x{size[1]}, flat poles in front ({args.near}x parallax); PSNR (dB) input -> "
