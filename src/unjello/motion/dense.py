@@ -221,7 +221,7 @@ class DenseMethod(SafeField):
         while self._pending:
             prev, cur, job = self._pending[0]
             fresh = isinstance(job, Future)
-            if isinstance(job, Future):
+            if isinstance(job, Future):  # (as ``fresh``, for the type checker)
                 if len(self._pending) <= keep and not job.done():
                     return
                 job = job.result()

@@ -202,18 +202,18 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     dis = _engine(preset, finest_scale, refinement)
     flow = dis.calc(a8, b8, None)  # type: ignore[call-overload]  # None: no start
-    shift, response = global_shift(a8, b8)
-    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
+    def started(shift: np.ndarray, whole: bool) -> np.ndarray:
+        """DIS again from the translation ``shift``, kept where it matches better."""
         start = np.empty_like(flow)
         start[...] = shift
         again = _engine(preset, finest_scale, refinement, started=True)
-        flow = _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start),
-                             whole=response < _SHIFT_RESPONSE)
+        return _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start), whole=whole)
+
+    shift, response = global_shift(a8, b8)
+    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
+        flow = started(shift, whole=response < _SHIFT_RESPONSE)
     if expect is not None:
-        start = np.empty_like(flow)
-        start[...] = np.asarray(expect, np.float32) * scale
-        again = _engine(preset, finest_scale, refinement, started=True)
-        flow = _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start), whole=True)
+        flow = started(np.asarray(expect, np.float32) * scale, whole=True)
     if polish > 0:
         _polisher(polish).calc(a8, b8, flow)
     if scale < 1.0:

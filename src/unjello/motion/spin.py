@@ -253,10 +253,9 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         # for a rotation: a spinner's arm matches another arm on one side.)
         sides = [costs(image, [o], pts, spin.centre[None], np.zeros(1), track, t_ref,
                        readout / h)[0] for o in others]
-        img = np.ascontiguousarray(image, np.float32)
-        grad = np.hypot(cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3),
-                        cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3))[ys, xs]
-        still[ys, xs] = np.where(grad >= EDGE, np.minimum.reduce(sides), both[1])
+        grad, near = _gradient(image, region)
+        edged = grad[region[near]] >= EDGE  # (the region's pixels in the order of ys, xs)
+        still[ys, xs] = np.where(edged, np.minimum.reduce(sides), both[1])
     box = (window, window)
     better = ((cv2.boxFilter(rot, -1, box) < cv2.boxFilter(still, -1, box)) & region)
     # One piece: gaps and small holes inside the object (a flat patch matches either
@@ -329,6 +328,19 @@ def elongation(region: np.ndarray) -> float:
     return float(np.sqrt(var[1] / max(var[0], 1e-9)))
 
 
+def _gradient(image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, tuple[slice, slice]]:
+    """Return the 3x3 Sobel gradient's magnitude on ``mask``'s box (non-empty), and the box.
+
+    Computed on the box and a pixel around it (the Sobel's reach): as on the whole frame.
+    """
+    ys, xs = np.nonzero(mask)
+    y0, x0 = max(0, ys.min() - 1), max(0, xs.min() - 1)
+    part = np.ascontiguousarray(image[y0:ys.max() + 2, x0:xs.max() + 2], np.float32)
+    grad = np.hypot(cv2.Sobel(part, cv2.CV_32F, 1, 0, ksize=3),
+                    cv2.Sobel(part, cv2.CV_32F, 0, 1, ksize=3))
+    return grad, np.s_[y0:y0 + part.shape[0], x0:x0 + part.shape[1]]
+
+
 def _edged(image: np.ndarray, support: np.ndarray) -> bool:
     """Whether ``support`` shows edges of its own: :data:`EDGED` of it at :data:`EDGE` or more.
 
@@ -336,15 +348,9 @@ def _edged(image: np.ndarray, support: np.ndarray) -> bool:
     neighbour shows the pole there) and a drift that carries it past the pole in both
     neighbours matches it, backwards or not; an object's own pixels have its outline.
     """
-    ys, xs = np.nonzero(support)
-    if not ys.size:
+    if not support.any():
         return False
-    # (on the support's box and a pixel around it: the Sobel's reach)
-    y0, x0 = max(0, ys.min() - 1), max(0, xs.min() - 1)
-    box = np.s_[y0:ys.max() + 2, x0:xs.max() + 2]
-    part = np.ascontiguousarray(image[box], np.float32)
-    grad = np.hypot(cv2.Sobel(part, cv2.CV_32F, 1, 0, ksize=3),
-                    cv2.Sobel(part, cv2.CV_32F, 0, 1, ksize=3))
+    grad, box = _gradient(image, support)
     return bool(np.mean(grad[support[box]] >= EDGE) >= EDGED)
 
 
