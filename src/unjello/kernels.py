@@ -248,11 +248,22 @@ def _jacobian_det(field: np.ndarray, det: np.ndarray) -> None:
 
 
 @njit(inline="always")
-def _held_tap(row: np.ndarray, i: int, c: np.float32, b: np.float32, top: float) -> float:
-    """``row[i] c + row[i + 1] b``, the indices held to the row's ends; rounded to ``top``."""
-    n = row.size - 1
-    v = row[min(max(i, 0), n)] * c + row[min(max(i + 1, 0), n)] * b
-    return min(int(v + np.float32(0.5)), top) if top > 0 else v
+def _edge_tap(src: np.ndarray, j: int, black: bool) -> np.float32:
+    """``src[j]``, beyond the row's ends the end repeated (or black)."""
+    w = src.size
+    if 0 <= j < w:
+        return np.float32(src[j])
+    if black:
+        return np.float32(0.0)
+    return np.float32(src[min(max(j, 0), w - 1)])
+
+
+@njit(inline="always")
+def _edge_taps(src0: np.ndarray, src1: np.ndarray, j: int, black: bool, w00: np.float32,
+               w01: np.float32, w10: np.float32, w11: np.float32) -> np.float32:
+    """Blend columns ``j``, ``j + 1`` of two rows bilinearly, held at their ends."""
+    return (w00 * _edge_tap(src0, j, black) + w01 * _edge_tap(src0, j + 1, black)
+            + w10 * _edge_tap(src1, j, black) + w11 * _edge_tap(src1, j + 1, black))
 
 
 def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
@@ -260,70 +271,62 @@ def shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool,
     """Warp back by rows: ``out[y, x] = image(x + dx[y], sy[y])``, bilinear.
 
     What :func:`cv2.remap` does with the maps ``x + dx[y]`` and ``sy[y]``, without the
-    maps: along a row the source moves by a constant, so the weights are the row's own
-    and the loops run over contiguous memory. Outside the image the edge is repeated
-    (``black`` False) or black.
+    maps: along a row the source moves by a constant, so the four weights are the row's
+    own and the loop runs over two contiguous source rows, which the compiler
+    vectorises. Outside the image the edge is repeated (``black`` False) or black.
 
     Parameters
     ----------
     image : ndarray of shape (h, w)
-        Any real dtype; integers are rounded and clipped to ``[0, top]``.
+        Any real dtype; integers are rounded (the weights are convex: no clipping needed).
     dx, sy : ndarray of shape (h,)
         Each output row's horizontal shift and source row.
     black : bool
     top : float
-        The largest value of an integer dtype; 0 for floats (no rounding).
+        Non-zero for an integer dtype (its values are rounded); 0 for floats.
 
     Returns
     -------
     ndarray like ``image``
     """
     out = np.empty_like(image)
-    row = np.empty(image.shape[1] + 2, np.float32)  # two source rows blended, a pixel beyond
-    _shift_rows(image, dx, sy, black, top, out, row)
+    _shift_rows(image, dx, sy, black, top, out)
     return out
 
 
 @compiled
 def _shift_rows(image: np.ndarray, dx: np.ndarray, sy: np.ndarray, black: bool, top: float,
-                out: np.ndarray, row: np.ndarray) -> None:
+                out: np.ndarray) -> None:
     h, w = image.shape
-    ftop = np.float32(top)
+    one, half = np.float32(1.0), np.float32(0.5 if top > 0 else 0.0)
     for y in range(h):
         fy = sy[y]
         y0 = int(math.floor(fy))
         a = np.float32(fy - y0)
-        w0, w1 = np.float32(1.0) - a, a
+        v0, v1 = one - a, a
         if black and not 0 <= y0 < h:
-            w0 = np.float32(0.0)
+            v0 = np.float32(0.0)
         if black and not 0 <= y0 + 1 < h:
-            w1 = np.float32(0.0)
-        src0, src1 = image[min(max(y0, 0), h - 1)], image[min(max(y0 + 1, 0), h - 1)]
-        dst = out[y]
-        for x in range(w):
-            row[x + 1] = np.float32(src0[x]) * w0 + np.float32(src1[x]) * w1
-        row[0] = 0.0 if black else row[1]
-        row[w + 1] = 0.0 if black else row[w]
+            v1 = np.float32(0.0)
         fx = dx[y]
         ix = int(math.floor(fx))
         b = np.float32(fx - ix)
-        c = np.float32(1.0) - b
-        # Output column x reads row[x + ix + 1] and row[x + ix + 2]: for x in [lo, hi)
-        # both lie within the row, a contiguous slice the compiler vectorises; outside
-        # it they are held to the row's ends.
-        lo = min(max(-ix - 1, 0), w)
-        hi = min(max(w - ix, lo), w)
+        w00, w01, w10, w11 = v0 * (one - b), v0 * b, v1 * (one - b), v1 * b
+        src0, src1 = image[min(max(y0, 0), h - 1)], image[min(max(y0 + 1, 0), h - 1)]
+        dst = out[y]
+        # Output column x reads source columns x + ix and x + ix + 1: for x in [lo, hi)
+        # both lie within the row, contiguous slices the compiler vectorises; outside it
+        # the taps are held to the row's ends (or black).
+        lo = min(max(-ix, 0), w)
+        hi = min(max(w - 1 - ix, lo), w)
+        s0, s1, d = src0[lo + ix:hi + ix + 1], src1[lo + ix:hi + ix + 1], dst[lo:hi]
+        for x in range(hi - lo):
+            d[x] = (w00 * np.float32(s0[x]) + w01 * np.float32(s0[x + 1])
+                    + w10 * np.float32(s1[x]) + w11 * np.float32(s1[x + 1]) + half)
         for x in range(lo):
-            dst[x] = _held_tap(row, x + ix + 1, c, b, top)
+            dst[x] = _edge_taps(src0, src1, x + ix, black, w00, w01, w10, w11) + half
         for x in range(hi, w):
-            dst[x] = _held_tap(row, x + ix + 1, c, b, top)
-        seg = row[lo + ix + 1:hi + ix + 2]
-        if top > 0:
-            for x in range(hi - lo):
-                dst[lo + x] = np.uint32(min(seg[x] * c + seg[x + 1] * b + np.float32(0.5), ftop))
-        else:
-            for x in range(hi - lo):
-                dst[lo + x] = seg[x] * c + seg[x + 1] * b
+            dst[x] = _edge_taps(src0, src1, x + ix, black, w00, w01, w10, w11) + half
 
 
 def shorth_sorted(srt: np.ndarray) -> np.ndarray:
