@@ -11,8 +11,15 @@ __all__ = ["compiled"]
 
 
 def compiled(fn: Callable[..., Any]) -> Any:
-    """``njit(cache=True)``; where no cache directory is writable, compiled every run."""
+    """``njit(cache=True, nogil=True)``; where no cache directory is writable, every run.
+
+    A kernel releases the GIL: the threads measuring the next frames' flows run on
+    while the main thread is in one (1080p default, timed whole: CPU 0.988x, wall 0.986x,
+    ``docs/measurements.md``). Numba keys its cache on the kernel's source file, not on
+    these options: a cache written by an older build of the same files is only replaced
+    once they change (a new install does; in a working tree, delete ``__pycache__``).
+    """
     try:
-        return njit(cache=True)(fn)
+        return njit(cache=True, nogil=True)(fn)
     except RuntimeError:  # Numba found no writable cache directory
-        return njit(fn)
+        return njit(nogil=True)(fn)
