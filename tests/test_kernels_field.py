@@ -1,5 +1,8 @@
 """The field helpers' compiled passes against the NumPy steps they replace, bit for bit."""
 
+import threading
+import time
+
 import cv2
 import numpy as np
 import pytest
@@ -122,9 +125,6 @@ def test_kernels_let_other_threads_run():
     long kernel call; holding the GIL, the kernel would stall it for the whole call (the
     kernel's own 30-110 ms, measured; released: at most 1.4 ms).
     """
-    import threading
-    import time
-
     field = np.zeros((3000, 3000, 2), np.float32)
     grid_plus(field[:2, :2])  # loaded (or compiled) before the race
     span: list[float] = []
