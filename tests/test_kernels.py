@@ -94,29 +94,6 @@ def test_quadratic_ahead(flow):
     assert (fallback == ~(oka | okb)).all()
 
 
-@pytest.mark.parametrize("size", [(90, 160), (45, 80), (67, 123)])
-def test_outside_pixels(size):
-    """The OpenCV reference: the marked cells upsampled (nearest), their pixels listed,
-    those whose source is outside kept."""
-    import cv2
-
-    h, w = size
-    rng = np.random.default_rng(6)
-    cells = (rng.random((9, 16)) < 0.3).astype(np.uint8)
-    gx, gy = grid(h, w)
-    mx = (gx + rng.normal(0, 1, (h, w)) + 0.3 * w * (gx > 0.8 * w)).astype(np.float32)
-    my = (gy + rng.normal(0, 1, (h, w))).astype(np.float32)
-    big = cv2.resize(cells, (w, h), interpolation=cv2.INTER_NEAREST)
-    pts = cv2.findNonZero(big).reshape(-1, 2)
-    xs, ys = pts[:, 0], pts[:, 1]
-    sx, sy = mx[ys, xs], my[ys, xs]
-    out = (sx < -0.5) | (sx > w - 0.5) | (sy < -0.5) | (sy > h - 0.5)
-    got = kernels.outside_pixels(cells, mx, my)
-    for a, b in zip(got, (xs[out], ys[out], sx[out], sy[out]), strict=True):
-        assert np.array_equal(a, b)
-    assert out.sum() > 20
-
-
 @pytest.mark.parametrize("size", [(37, 53), (1, 5), (4, 1), (2, 2)])
 def test_jacobian_det(flow, size):
     f = np.ascontiguousarray(flow[:size[0], :size[1]])

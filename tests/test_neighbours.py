@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from unjello.map_bands import PlaneMaps
 from unjello.neighbours import fill_from_neighbours, neighbour_sources, unseen_share
 from unjello.warp import resize_maps
 
@@ -45,7 +46,7 @@ def test_neighbour_sources_coarse_test_finds_the_same_pixels():
     flows = [np.broadcast_to(np.array([dx, dy], np.float32), (30, 40, 2)).copy()
              for dx in (-3, 0, 3) for dy in (-3, 0, 3) if dx or dy]  # 9 px of the plane
     a = neighbour_sources(full, flows)
-    b = neighbour_sources(full, flows, coarse=(cmx, cmy))
+    b = neighbour_sources(PlaneMaps(cmx, cmy, 90, 120), flows)
 
     def found(parts):
         return sorted((y, x) for p in parts for y, x in zip(p[1].tolist(), p[2].tolist(),
@@ -54,6 +55,9 @@ def test_neighbour_sources_coarse_test_finds_the_same_pixels():
     missing = (full[0] < -0.5) | (full[0] > 119.5) | (full[1] < -0.5) | (full[1] > 89.5)
     assert len(found(a)) == missing.sum() > 0
     assert found(a) == found(b)
+    for pa, pb in zip(a, b, strict=True):  # the same sources, bit for bit
+        assert pa[0] == pb[0] and all(np.array_equal(u, v)
+                                      for u, v in zip(pa[1:], pb[1:], strict=True))
 
 def test_neighbour_sources_take_each_row_from_the_neighbour_that_saw_it():
     """Issue 38: beyond the edge, rows read after the reference come from the previous

@@ -29,7 +29,7 @@ from numba import njit
 from . import kernels_drift, kernels_field
 from .jit import compiled
 
-__all__ = ["consistency", "residual_side", "quadratic_ahead", "outside_pixels", "jacobian_det",
+__all__ = ["consistency", "residual_side", "quadratic_ahead", "jacobian_det",
            "shift_rows", "shorth_sorted", "warm_up"]
 
 
@@ -168,56 +168,6 @@ def _quadratic_ahead(ea: np.ndarray, ra: np.ndarray, oka: np.ndarray, eb: np.nda
                 field[i, j, 1] = s * rb[i, j, 1]
             else:
                 fallback[i, j] = True
-
-
-def outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Find the pixels whose source lies outside the frame, only in the marked cells.
-
-    ``cells`` (th, tw) marks the coarse samples near which a source may leave the frame;
-    pixel ``(x, y)`` of the (h, w) maps belongs to cell ``(x * tw // w, y * th // h)`` (as
-    nearest-neighbour upsampling of ``cells`` would say). Row by row, as ``cv2.findNonZero``
-    lists them.
-
-    Returns
-    -------
-    xs, ys : ndarray of int32
-        The pixels whose source ``(map_x, map_y)`` lies more than half a pixel outside.
-    sx, sy : ndarray of float32
-        Their sources.
-    """
-    w = map_x.shape[1]
-    tw = cells.shape[1]
-    c = np.arange(tw + 1, dtype=np.int64)
-    lo = (c * w + tw - 1) // tw  # the first pixel column of each cell
-    found = [np.empty(0, np.int32), np.empty(0, np.int32), np.empty(0, np.float32),
-             np.empty(0, np.float32)]
-    count = _outside_pixels(cells, map_x, map_y, lo, *found, False)  # count, then fill
-    found = [np.empty(count, a.dtype) for a in found]
-    _outside_pixels(cells, map_x, map_y, lo, *found, True)
-    xs, ys, sx, sy = found
-    return xs, ys, sx, sy
-
-
-@compiled
-def _outside_pixels(cells: np.ndarray, map_x: np.ndarray, map_y: np.ndarray, lo: np.ndarray,
-                    xs: np.ndarray, ys: np.ndarray, sx: np.ndarray, sy: np.ndarray,
-                    fill: bool) -> int:
-    h, w = map_x.shape
-    th, tw = cells.shape
-    n = 0
-    for y in range(h):
-        cy = y * th // h
-        for c in range(tw):
-            if not cells[cy, c]:
-                continue
-            for x in range(lo[c], lo[c + 1]):
-                px, py = map_x[y, x], map_y[y, x]
-                if px < -0.5 or px > w - 0.5 or py < -0.5 or py > h - 0.5:
-                    if fill:
-                        xs[n], ys[n], sx[n], sy[n] = x, y, px, py
-                    n += 1
-    return n
 
 
 def jacobian_det(field: np.ndarray) -> np.ndarray:
@@ -387,10 +337,11 @@ def warm_up() -> float:
     shorth_sorted(np.sort(f, axis=1))
     jacobian_det(f)
     shift_rows(np.zeros((4, 5), np.uint8), np.zeros(4), np.zeros(4), False, 255.0)
-    outside_pixels(ok.view(np.uint8), e, e)
     kernels_field.fill_from_weights(f, ok, f, e, f[:, :1], 0.05)
     kernels_field.projective_maps(np.zeros(8), f)
     kernels_field.grid_plus(f, 1, 2)
+    kernels_field.map_rows(e, np.zeros(4, np.int64), rows, rows, 0, 2, e)
+    kernels_field.outside_in_rows(ok.view(np.uint8), e, e, np.zeros(4, np.int64), rows, rows)
     kernels_drift.drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.arange(3.0),
                               np.zeros(3, complex), 0j, (1.0, 1.0), 0j, 0.1, 2,
                               40.0)(np.zeros((1, 2)))

@@ -16,10 +16,11 @@ Compiled as :mod:`unjello.kernels` is (:func:`unjello.jit.compiled`).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .jit import compiled
 
-__all__ = ["fill_from_weights", "projective_maps", "grid_plus"]
+__all__ = ["fill_from_weights", "projective_maps", "grid_plus", "map_rows", "outside_in_rows"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
@@ -174,3 +175,97 @@ def _grid_plus(field: np.ndarray, top: int, left: int, mx: np.ndarray, my: np.nd
             mx[i, j] = x
             my[i, j] = y
             inside[i, j] = zero <= x <= right and zero <= y <= bottom
+
+
+@njit(inline="always")
+def _between(rows: np.ndarray, k: int, f: np.float32, g: np.float32, x: int) -> np.float32:
+    """Row ``k`` and ``k + 1`` of ``rows`` at column ``x``, weighted ``g`` and ``f``."""
+    return g * rows[k, x] + f * rows[k + 1, x]
+
+
+def map_rows(rows: np.ndarray, top: np.ndarray, frac: np.ndarray, held: np.ndarray,
+             first: int, last: int, out: np.ndarray) -> None:
+    """Interpolate a map along y: plane rows ``first:last`` into ``out`` (float32).
+
+    ``out[i] = (1 - f) * rows[k] + f * rows[k + 1] + held[y]`` for plane row ``y = first +
+    i``, with ``k = top[y]`` and ``f = frac[y]`` (:class:`unjello.map_bands.PlaneMaps`).
+
+    Parameters
+    ----------
+    rows : ndarray of shape (hc, width), float32
+        The coarse grid's rows, interpolated along x to the plane's width.
+    top : ndarray of int64, shape (height,)
+    frac, held : ndarray of float32, shape (height,)
+    first, last : int
+    out : ndarray of shape (>= last - first, width), float32
+    """
+    _map_rows(rows, top, frac, held, first, last, out)
+
+
+@compiled
+def _map_rows(rows: np.ndarray, top: np.ndarray, frac: np.ndarray, held: np.ndarray,
+              first: int, last: int, out: np.ndarray) -> None:
+    one = np.float32(1.0)
+    for y in range(first, last):
+        k, f, add = top[y], frac[y], held[y]
+        g = one - f
+        for x in range(rows.shape[1]):
+            out[y - first, x] = _between(rows, k, f, g, x) + add
+
+
+def outside_in_rows(cells: np.ndarray, rows_x: np.ndarray, rows_y: np.ndarray,
+                    top: np.ndarray, frac: np.ndarray, held: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Find the pixels whose source lies outside the plane, only in the marked cells.
+
+    The maps are :func:`map_rows`' of ``rows_x`` (nothing held) and ``rows_y`` (``held``
+    added), evaluated only in the cells marked in ``cells`` (th, tw): pixel ``(x, y)`` of
+    the (height, width) plane belongs to cell ``(x * tw // width, y * th // height)`` (as
+    nearest-neighbour upsampling of ``cells`` would say). Row by row, as
+    ``cv2.findNonZero`` lists them.
+
+    Returns
+    -------
+    xs, ys : ndarray of int32
+        The pixels whose source lies more than half a pixel outside.
+    sx, sy : ndarray of float32
+        Their sources.
+    """
+    w = rows_x.shape[1]
+    tw = cells.shape[1]
+    c = np.arange(tw + 1, dtype=np.int64)
+    lo = (c * w + tw - 1) // tw  # the first pixel column of each cell
+    found = [np.empty(0, np.int32), np.empty(0, np.int32), np.empty(0, np.float32),
+             np.empty(0, np.float32)]
+    args = (np.ascontiguousarray(cells, np.uint8), rows_x, rows_y, top, frac, held, lo)
+    count = _outside_in_rows(*args, *found, False)  # count, then fill
+    found = [np.empty(count, a.dtype) for a in found]
+    _outside_in_rows(*args, *found, True)
+    xs, ys, sx, sy = found
+    return xs, ys, sx, sy
+
+
+@compiled
+def _outside_in_rows(cells: np.ndarray, rows_x: np.ndarray, rows_y: np.ndarray,
+                     top: np.ndarray, frac: np.ndarray, held: np.ndarray, lo: np.ndarray,
+                     xs: np.ndarray, ys: np.ndarray, sx: np.ndarray, sy: np.ndarray,
+                     fill: bool) -> int:
+    h, w = top.shape[0], rows_x.shape[1]
+    th, tw = cells.shape
+    one, zero = np.float32(1.0), np.float32(0.0)
+    n = 0
+    for y in range(h):
+        cy = y * th // h
+        k, f = top[y], frac[y]
+        g = one - f
+        for c in range(tw):
+            if not cells[cy, c]:
+                continue
+            for x in range(lo[c], lo[c + 1]):
+                px = _between(rows_x, k, f, g, x) + zero
+                py = _between(rows_y, k, f, g, x) + held[y]
+                if px < -0.5 or px > w - 0.5 or py < -0.5 or py > h - 0.5:
+                    if fill:
+                        xs[n], ys[n], sx[n], sy[n] = x, y, px, py
+                    n += 1
+    return n

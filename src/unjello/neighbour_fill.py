@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .leaving import edge_objects, objects_beyond, settled_objects
+from .map_bands import PlaneMaps
 from .neighbours import fill_from_neighbours, neighbour_sources, unseen_share
 from .timing import SensorTiming
 from .uncovered import confirmed, uncovered, uncovered_sources
@@ -29,8 +30,6 @@ class NeighbourFill:
     field : ndarray, optional
         The forward displacement the maps invert, in their grid's pixels: given, the
         background a nearer object uncovered is looked for too (:func:`uncovered`).
-    coarse : bool
-        Whether the full-resolution test may be limited by ``maps`` (no lens composed).
     own : list of ndarray, optional
         This frame's planes (top-bottom): given with ``field``, nearer objects leaving
         the frame at a side are carried beyond it by their own motion
@@ -43,9 +42,9 @@ class NeighbourFill:
     def __init__(self, maps: tuple[np.ndarray, np.ndarray],
                  neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
                  timing: SensorTiming, field: np.ndarray | None = None,
-                 coarse: bool = True, own: list[np.ndarray] | None = None,
+                 own: list[np.ndarray] | None = None,
                  lone: bool = False) -> None:
-        self.maps, self.offsets, self.timing, self.coarse = maps, offsets, timing, coarse
+        self.maps, self.offsets, self.timing = maps, offsets, timing
         self.planes = [planes for planes, _ in neighbours]
         self.flows = [flow for _, flow in neighbours]
         grid = maps[0].shape
@@ -65,16 +64,19 @@ class NeighbourFill:
         #: Of the first plane, the share whose source lies beyond the edge that no neighbour saw.
         self.unseen = 0.0
 
-    def __call__(self, i: int, out: np.ndarray, sized: tuple[np.ndarray, np.ndarray]
-                 ) -> np.ndarray:
-        """Fill plane ``i`` (warped, top-bottom, its maps ``sized``) in place; return it."""
+    def __call__(self, i: int, out: np.ndarray,
+                 sized: tuple[np.ndarray, np.ndarray] | PlaneMaps) -> np.ndarray:
+        """Fill plane ``i`` (warped, top-bottom, its maps ``sized``) in place; return it.
+
+        ``sized``: the plane's maps whole, or as the coarse ones (a lens composed: whole).
+        """
         ph, pw = out.shape[:2]
         grid = self.maps[0].shape
         if i == 0 and self.behind is not None:
             self.behind = confirmed(self.behind, grid, out, self._sources(0))
         if (ph, pw) not in self._parts:
-            parts = neighbour_sources(sized, self.flows, self.maps if self.coarse else None,
-                                      self.offsets, self.timing.reference_row(ph))
+            parts = neighbour_sources(sized, self.flows, self.offsets,
+                                      self.timing.reference_row(ph))
             if self.objects and (i == 0 or self._decided is not None):
                 assert self.own is not None
                 parts, self._decided = objects_beyond(

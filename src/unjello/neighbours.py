@@ -14,7 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .kernels import outside_pixels
+from .map_bands import PlaneMaps
 
 __all__ = ["neighbour_sources", "fill_from_neighbours", "unseen_share", "outside_share",
            "sample_points", "INSET"]
@@ -37,8 +37,7 @@ def sample_points(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray
     return out.reshape(rows * cols, *image.shape[2:])[:n]
 
 
-def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarray],
-                      coarse: tuple[np.ndarray, np.ndarray] | None = None,
+def neighbour_sources(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, flows: list[np.ndarray],
                       offsets: list[int] | None = None, reference_row: float | None = None
                       ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Where to take the output pixels whose source lies outside the frame.
@@ -50,15 +49,13 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
 
     Parameters
     ----------
-    maps : tuple of ndarray of shape (h, w)
-        The plane's backward maps (plane pixels).
+    maps : tuple of ndarray of shape (h, w), or PlaneMaps
+        The plane's backward maps (plane pixels), whole or as the coarse maps they are
+        interpolated from (:class:`~unjello.map_bands.PlaneMaps`): then only pixels near
+        a coarse sample that leaves the frame can leave it, and only those are tested.
     flows : list of ndarray
         Flow from this frame to each neighbour, (hf, wf, 2) in pixels of that (hf, wf)
         grid; a pixel goes to the first neighbour that saw it.
-    coarse : tuple of ndarray, optional
-        The low-resolution maps ``maps`` were interpolated from (:func:`resize_maps`):
-        only pixels near a coarse sample that leaves the frame can leave it, so the
-        full-resolution test is limited to those.
     offsets, reference_row : list of int, float, optional
         Each flow's neighbour (-1: the previous frame, 1: the next) and the reference
         scanline (plane pixels, top-bottom). What the reference instant shows beyond the
@@ -74,27 +71,24 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray], flows: list[np.ndarra
         -1 (the last part, when any): the pixels no neighbour saw either, at their
         sources beyond the edge (:func:`fill_from_neighbours` leaves them as they are).
     """
-    mx, my = maps
-    h, w = mx.shape
-    test = coarse if coarse is not None else maps
+    h, w = maps.shape if isinstance(maps, PlaneMaps) else maps[0].shape
+    test = maps.coarse if isinstance(maps, PlaneMaps) else maps
     th, tw = test[0].shape
-    # A coarse sample's pixels reach up to half a sample beyond it (:func:`resize_maps`
-    # carries the displacement to the frame's edge): only samples at least half a sample
-    # inside are surely inside.
-    lo, hi = (-0.5, 0.5) if coarse is None else (0.0, 1.0)
+    # A coarse sample's pixels reach up to half a sample beyond it (the displacement is
+    # held to the frame's edge): only samples at least half a sample inside are surely
+    # inside.
+    lo, hi = (0.0, 1.0) if isinstance(maps, PlaneMaps) else (-0.5, 0.5)
     inside = cv2.bitwise_and(cv2.inRange(test[0], lo, tw - hi),
                              cv2.inRange(test[1], lo, th - hi))
     if cv2.countNonZero(inside) == th * tw:
         return []
     outside = cv2.bitwise_not(inside)
-    if coarse is not None:  # bilinear upsampling stays inside its 2x2 coarse samples
-        xs, ys, sx, sy = outside_pixels(cv2.dilate(outside, np.ones((3, 3), np.uint8)),
-                                        np.ascontiguousarray(mx, np.float32),
-                                        np.ascontiguousarray(my, np.float32))
+    if isinstance(maps, PlaneMaps):  # bilinear upsampling stays inside its 2x2 coarse samples
+        xs, ys, sx, sy = maps.outside(cv2.dilate(outside, np.ones((3, 3), np.uint8)))
     else:
         pts = cv2.findNonZero(outside).reshape(-1, 2)
         xs, ys = pts[:, 0], pts[:, 1]
-        sx, sy = mx[ys, xs], my[ys, xs]
+        sx, sy = maps[0][ys, xs], maps[1][ys, xs]
     order = list(range(len(flows)))
     if offsets is not None and reference_row is not None and len(flows) > 1:
         late = sy >= reference_row  # read after the reference: the previous frame first
@@ -152,14 +146,18 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
     return out
 
 
-def outside_share(maps: tuple[np.ndarray, np.ndarray], step: int = 8) -> float:
+def outside_share(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, step: int = 8) -> float:
     """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge.
 
     Counted on every ``step``-th pixel of every ``step``-th row (a 1080p frame's maps
-    whole: 10 ms).
+    whole: 10 ms). ``maps`` whole, or as :class:`~unjello.map_bands.PlaneMaps`.
     """
-    h, w = maps[0].shape
-    mx, my = (np.ascontiguousarray(m[step // 2::step, step // 2::step]) for m in maps)
+    if isinstance(maps, PlaneMaps):
+        h, w = maps.shape
+        mx, my = maps.sample(step)
+    else:
+        h, w = maps[0].shape
+        mx, my = (np.ascontiguousarray(m[step // 2::step, step // 2::step]) for m in maps)
     inside = cv2.bitwise_and(cv2.inRange(mx, -0.5, w - 0.5), cv2.inRange(my, -0.5, h - 0.5))
     return 1.0 - cv2.countNonZero(inside) / float(mx.size)
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from .kernels_field import grid_plus
 from .lens import Lens
+from .map_bands import BAND_SAMPLES, PlaneMaps, warp_bands
 from .neighbour_fill import NeighbourFill
 from .neighbours import outside_share
 from .scanlines import row_sources, shift_planes
@@ -340,30 +341,13 @@ def resize_maps(map_x: np.ndarray, map_y: np.ndarray, height: int, width: int,
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Backward maps computed at one resolution, for a plane of another (pixel centres).
 
-    ``out``: two float32 arrays of ``height x width`` to write the maps into (a 1080p
-    frame's are 16 MB, faulted in afresh every frame when allocated anew).
+    Bilinear, the displacement held beyond the outermost samples
+    (:class:`~unjello.map_bands.PlaneMaps`, whole). ``out``: two float32 arrays of
+    ``height x width`` to write the maps into.
     """
-    h, w = map_x.shape
-    if (h, w) == (height, width):
+    if map_x.shape == (height, width):
         return map_x, map_y
-    sx, sy = np.float32(width / w), np.float32(height / h)
-    # Linear interpolation commutes with the affine change of units: apply it first,
-    # on the small maps.
-    mx, my = (cv2.resize((m + np.float32(0.5)) * s - np.float32(0.5), (width, height),
-                         dst=o, interpolation=cv2.INTER_LINEAR)
-              for m, s, o in zip((map_x, map_y), (sx, sy), out or (None, None), strict=True))
-    # Beyond the outermost sample centres (half a sample from each edge) cv2.resize holds
-    # the value: there the source position would stop moving and smear the edge over
-    # half a sample (4 px for a field every 8 px). Hold the displacement instead.
-    for m, n, size, scale, axis in ((mx, w, width, sx, 1), (my, h, height, sy, 0)):
-        coarse = (np.arange(size, dtype=np.float32) + 0.5) / scale - 0.5
-        beyond = (coarse - np.clip(coarse, 0, n - 1)) * scale
-        edge = np.flatnonzero(beyond)
-        if axis == 1:
-            m[:, edge] += beyond[edge]
-        else:
-            m[edge] += beyond[edge, None]
-    return mx, my
+    return PlaneMaps(map_x, map_y, height, width).whole(out)
 
 
 def reframe_maps(maps: tuple[np.ndarray, np.ndarray], reframe: Reframe,
@@ -514,7 +498,7 @@ class PictureWarper:
                     [k for k, _, _ in have], self.timing,
                     grid_field(motion.field, maps[0].shape, (h, w))
                     if plain and motion.field is not None else None,
-                    coarse=self.undistort is None, own=[to_top_bottom(p, d) for p in planes],
+                    own=[to_top_bottom(p, d) for p in planes],
                     lone=bool(motion.front))
         out = []
         for i, plane in enumerate(planes):
@@ -533,21 +517,39 @@ class PictureWarper:
                     res = shift_planes(tb, _plane_displacement(motion, ph, pw, h, w), fill)
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
-                    buffers = self._buffer(ph, pw)  # reused: not faulted in every frame
-                    sized[(ph, pw)] = resize_maps(*maps, ph, pw, buffers) if maps is not None else (
-                        reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, h, w), pw,
-                                                out=buffers), motion.reframe, (h, w)))
-                    if self.undistort is not None:  # one resampling: the maps composed
-                        sized[(ph, pw)] = compose_maps(sized[(ph, pw)],
-                                                       self._lens(ph, pw, scale))
-                res = apply_maps(tb, sized[(ph, pw)], fill=fill)
+                    sized[(ph, pw)] = self._plane_maps(maps, motion, ph, pw, (h, w), scale)
+                plane_maps = sized[(ph, pw)]
+                if isinstance(plane_maps, PlaneMaps):
+                    res = warp_bands(tb, plane_maps, fill,
+                                     self._buffer(min(ph, max(1, BAND_SAMPLES // pw)), pw))
+                else:
+                    res = apply_maps(tb, plane_maps, fill=fill)
                 if fills is not None:
-                    res = fills(i, res, sized[(ph, pw)])
+                    res = fills(i, res, plane_maps)
                 if i == 0:
                     self.unseen = fills.unseen if fills is not None else outside_share(
-                        sized[(ph, pw)])
+                        plane_maps)
             out.append(from_top_bottom(res, d))
         return out
+
+    def _plane_maps(self, maps: tuple[np.ndarray, np.ndarray] | None, motion: FrameMotion,
+                    ph: int, pw: int, frame: tuple[int, int], scale: float
+                    ) -> tuple[np.ndarray, np.ndarray] | PlaneMaps:
+        """Return the backward maps of a top-bottom plane of ``ph x pw``.
+
+        A per-pixel motion's (``maps``, on its field's grid) as :class:`PlaneMaps`, made
+        band by band as the plane is warped; whole where a lens is composed with them,
+        or for a per-scanline motion composed with a reframe or a lens.
+        """
+        if maps is not None and self.undistort is None:
+            return PlaneMaps(*maps, ph, pw)
+        buffers = self._buffer(ph, pw)  # reused: not faulted in every frame
+        whole = (PlaneMaps(*maps, ph, pw).whole(buffers) if maps is not None else
+                 reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, *frame), pw,
+                                         out=buffers), motion.reframe, frame))
+        if self.undistort is not None:  # one resampling: the maps composed
+            whole = compose_maps(whole, self._lens(ph, pw, scale))
+        return whole
 
     def _lens(self, ph: int, pw: int, scale: float) -> tuple[np.ndarray, np.ndarray]:
         """Return the lens's undistortion maps for a top-bottom plane of ``ph x pw``.
