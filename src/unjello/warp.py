@@ -486,7 +486,7 @@ class PictureWarper:
         fill: Fill = "black" if self.fill == "black" else "nearest"
         h, w = to_top_bottom(planes[0], d).shape[:2]
         maps = frame_maps(motion, h, w)[0] if motion.field is not None else None
-        sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray] | PlaneMaps] = {}
         fills = None
         if maps is not None and around and fill == "nearest":
             have = [(k, pic, flow) for k, flow in motion.neighbours
