@@ -18,13 +18,18 @@ import numpy as np
 
 from .kernels_field import map_rows, outside_in_rows
 
-__all__ = ["PlaneMaps", "warp_bands", "BAND_SAMPLES"]
+__all__ = ["PlaneMaps", "warp_bands", "band_rows", "BAND_SAMPLES"]
 
 #: Map samples in a band (its rows times the plane's width): both maps of a band take
 #: 2 x 4 bytes a sample, 0.5 MB, within a core's cache. At 1080p, 1080 x 1920 luma,
 #: one thread: 7.0-7.4 ms for the maps and the remap band by band against 9.2-10.3 ms
 #: whole (``docs/measurements.md``).
 BAND_SAMPLES = 1 << 16
+
+
+def band_rows(height: int, width: int) -> int:
+    """Return the rows of a band of a ``height x width`` plane (:data:`BAND_SAMPLES`)."""
+    return min(height, max(1, BAND_SAMPLES // width))
 
 
 def _held_beyond(size: int, n: int, scale: float) -> np.ndarray:
@@ -140,8 +145,8 @@ def warp_bands(image: np.ndarray, maps: PlaneMaps, fill: str = "nearest",
         Two float32 arrays of at least a band's rows x the plane's width, reused.
     """
     height, width = maps.shape
-    rows = max(1, BAND_SAMPLES // width)
-    if buffers is None or buffers[0].shape[0] < min(rows, height):
+    rows = band_rows(height, width)
+    if buffers is None or buffers[0].shape[0] < rows:
         buffers = (np.empty((rows, width), np.float32), np.empty((rows, width), np.float32))
     border = cv2.BORDER_REPLICATE if fill == "nearest" else cv2.BORDER_CONSTANT
     out = np.empty_like(image)

@@ -29,7 +29,7 @@ import numpy as np
 
 from .kernels_field import grid_plus
 from .lens import Lens
-from .map_bands import BAND_SAMPLES, PlaneMaps, warp_bands
+from .map_bands import PlaneMaps, band_rows, warp_bands
 from .neighbour_fill import NeighbourFill
 from .neighbours import outside_share
 from .scanlines import row_sources, shift_planes
@@ -459,7 +459,7 @@ class PictureWarper:
         self.timing = timing
         self.warp, self.fill = warp, fill
         self.undistort = undistort
-        self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        self._buffers: dict[tuple[str, int, int], tuple[np.ndarray, np.ndarray]] = {}
         self._lens_maps: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
         self.unseen = 0.0
 
@@ -521,7 +521,7 @@ class PictureWarper:
                 plane_maps = sized[(ph, pw)]
                 if isinstance(plane_maps, PlaneMaps):
                     res = warp_bands(tb, plane_maps, fill,
-                                     self._buffer(min(ph, max(1, BAND_SAMPLES // pw)), pw))
+                                     self._buffer("band", band_rows(ph, pw), pw))
                 else:
                     res = apply_maps(tb, plane_maps, fill=fill)
                 if fills is not None:
@@ -543,7 +543,7 @@ class PictureWarper:
         """
         if maps is not None and self.undistort is None:
             return PlaneMaps(*maps, ph, pw)
-        buffers = self._buffer(ph, pw)  # reused: not faulted in every frame
+        buffers = self._buffer("whole", ph, pw)  # reused: not faulted in every frame
         whole = (PlaneMaps(*maps, ph, pw).whole(buffers) if maps is not None else
                  reframe_maps(remap_maps(_plane_displacement(motion, ph, pw, *frame), pw,
                                          out=buffers), motion.reframe, frame))
@@ -562,11 +562,12 @@ class PictureWarper:
             self._lens_maps[(ph, pw)] = self.undistort.scaled(scale).undistortion_maps((ph, pw))
         return self._lens_maps[(ph, pw)]
 
-    def _buffer(self, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
-        """Map buffers for planes of ``h x w``, reused from frame to frame."""
-        if (h, w) not in self._buffers:
-            self._buffers[(h, w)] = (np.empty((h, w), np.float32), np.empty((h, w), np.float32))
-        return self._buffers[(h, w)]
+    def _buffer(self, use: str, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+        """Two float32 maps of ``h x w`` for one ``use`` (a band, the whole), reused."""
+        if (use, h, w) not in self._buffers:
+            self._buffers[(use, h, w)] = (np.empty((h, w), np.float32),
+                                          np.empty((h, w), np.float32))
+        return self._buffers[(use, h, w)]
 
 
 def compose_maps(first: tuple[np.ndarray, np.ndarray], then: tuple[np.ndarray, np.ndarray]
