@@ -2,8 +2,9 @@
 
 import cv2
 import numpy as np
+import pytest
 
-from unjello.motion.flow import invert_flow, optical_flow
+from unjello.motion.flow import invert_flow, median_along, optical_flow
 from unjello.motion.patches import refine_motion_edges
 
 
@@ -254,3 +255,17 @@ def test_a_fast_pan_the_correlation_misses_is_followed_from_the_expected_shift()
     flow = optical_flow(cur, prev, "medium", 0, None, 1, 2, expect=np.array([-128.0, 0.0]))
     rows = row_flows(flow, ok)[1]
     assert np.mean(np.abs(rows[:, 0] + 128.0) < 2.0) > 0.9
+
+
+@pytest.mark.parametrize("n", [1, 2, 79, 80, 120])
+def test_median_along_is_numpys_median(n):
+    rng = np.random.default_rng(n)
+    values = rng.normal(0, 5, (27, n, 2)).astype(np.float32)
+    values[:, : n // 3] = values[:, :1]  # ties
+    for axis in (0, 1, 2):
+        want = np.median(values, axis=axis)
+        got = median_along(values, axis)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+    flat = values.ravel().astype(np.float64)
+    assert median_along(flat) == np.median(flat)

@@ -65,6 +65,7 @@ from .flow import (
     flow_pair,
     half_row_flows,
     landing,
+    median_along,
     optical_flow,
     row_flows,
 )
@@ -101,7 +102,7 @@ def _translation(flow: np.ndarray, ok: np.ndarray) -> np.ndarray:
     sub, good = flow[::4, ::4].reshape(-1, 2), ok[::4, ::4].ravel()
     if good.mean() >= 0.1:
         sub = sub[good]
-    return np.median(sub, axis=0).astype(np.float64)
+    return median_along(sub, 0).astype(np.float64)
 
 
 class DenseMethod(SafeField):
@@ -448,7 +449,7 @@ class DenseMethod(SafeField):
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
-        disp = to_full_rows(np.median(field[:, ::4], axis=1))  # a summary: every 4th is plenty
+        disp = to_full_rows(median_along(field[:, ::4], 1))  # a summary: every 4th is plenty
         scale_axes(field, *scale)
         for layer in fronts:  # their displacements too; the weight stays
             layer[..., :2] *= scale

