@@ -10,6 +10,7 @@ import pytest
 from unjello.kernels_field import (
     fill_from_weights,
     grid_plus,
+    lands_inside,
     projective_maps,
 )
 from unjello.motion.field import (
@@ -113,6 +114,7 @@ def test_grid_plus_is_the_grid_added():
     np.testing.assert_array_equal(my, gy + flow[..., 1])
     np.testing.assert_array_equal(inside, (mx >= 0) & (mx <= 47) & (my >= 0) & (my <= 26))
     assert inside.any() and not inside.all() and not inside[2, 3]
+    np.testing.assert_array_equal(lands_inside(flow), inside)
     mx, my, _ = grid_plus(flow[5:9, 10:20], 5, 10)
     np.testing.assert_array_equal(mx, gx[5:9, 10:20] + flow[5:9, 10:20, 0])
     np.testing.assert_array_equal(my, gy[5:9, 10:20] + flow[5:9, 10:20, 1])

@@ -20,7 +20,8 @@ from numba import njit
 
 from .jit import compiled
 
-__all__ = ["fill_from_weights", "projective_maps", "grid_plus", "map_rows", "outside_in_rows"]
+__all__ = ["fill_from_weights", "projective_maps", "grid_plus", "lands_inside", "map_rows",
+           "outside_in_rows"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
@@ -174,6 +175,29 @@ def _grid_plus(field: np.ndarray, top: int, left: int, mx: np.ndarray, my: np.nd
             y = y0 + field[i, j, 1]
             mx[i, j] = x
             my[i, j] = y
+            inside[i, j] = zero <= x <= right and zero <= y <= bottom
+
+
+def lands_inside(field: np.ndarray) -> np.ndarray:
+    """Whether each pixel moved by ``field`` lands within the frame: :func:`grid_plus`'s test.
+
+    The same float32 sums, without writing the positions (a third of the memory traffic).
+    """
+    inside = np.empty(field.shape[:2], np.bool_)
+    _lands_inside(np.ascontiguousarray(field, np.float32), inside)
+    return inside
+
+
+@compiled
+def _lands_inside(field: np.ndarray, inside: np.ndarray) -> None:
+    h, w = inside.shape
+    right, bottom = np.float32(w - 1), np.float32(h - 1)
+    zero = np.float32(0.0)
+    for i in range(h):
+        y0 = np.float32(i)
+        for j in range(w):
+            x = np.float32(j) + field[i, j, 0]
+            y = y0 + field[i, j, 1]
             inside[i, j] = zero <= x <= right and zero <= y <= bottom
 
 

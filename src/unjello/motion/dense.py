@@ -45,6 +45,7 @@ import cv2
 import numpy as np
 
 from ..kernels import residual_side
+from ..kernels_field import lands_inside
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
@@ -64,7 +65,6 @@ from .flow import (
     FlowSettings,
     flow_pair,
     half_row_flows,
-    landing,
     median_along,
     optical_flow,
     row_flows,
@@ -91,7 +91,7 @@ def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
               ) -> tuple[np.ndarray, np.ndarray]:
     """Return the flow from ``cur`` to ``prev`` and where it lands inside (rows-only mode)."""
     flow = optical_flow(cur, prev, preset, max_width, finest_scale, expect=expect)
-    return flow, landing(flow)[2]
+    return flow, lands_inside(flow)
 
 
 def _translation(flow: np.ndarray, ok: np.ndarray) -> np.ndarray:
@@ -527,7 +527,7 @@ class DenseMethod(SafeField):
                                 (fr.fwd, fr.fwd_ok, neighbours.get(fr.index + 1))):
             if flow is None or ok is None or other is None:
                 continue
-            entering &= ~landing(flow)[2]
+            entering &= ~lands_inside(flow)
             if self.config.snap_window:
                 flow = snap_to_global(fr.image, other.image, flow, ok, self.config.snap_window)
             # The camera's part of the flow (eq. 26) off it, and the time to where it lands.

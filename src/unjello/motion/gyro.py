@@ -38,10 +38,11 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 from ..gyrolog import GyroConfig, GyroLog, _axes_spec, axes_matrix
+from ..kernels_field import lands_inside
 from ..lens import Lens
 from ..timing import SensorTiming
 from ..trajectory import FIELD_STEP, FrameMotion
-from .flow import landing, optical_flow, row_flows
+from .flow import optical_flow, row_flows
 
 __all__ = ["GyroCalibration", "GyroMethod", "GyroMismatch", "calibrate", "gyro_field"]
 
@@ -447,7 +448,7 @@ class GyroMethod:
             return
         prev, cur = self._small[-2], self._small[-1]
         flow = optical_flow(cur, prev, "medium", 0, 0)
-        y, med, wgt = row_flows(flow, landing(flow)[2])  # pixels whose flow lands inside
+        y, med, wgt = row_flows(flow, lands_inside(flow))  # pixels whose flow lands inside
         sx, sy = w / size[0], h / size[1]
         self._rows.append((len(self._small) - 1, (y + 0.5) * sy - 0.5,
                            med * np.array([sx, sy]), wgt))
