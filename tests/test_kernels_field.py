@@ -9,6 +9,7 @@ import pytest
 
 from unjello.kernels_field import (
     fill_from_weights,
+    fixed_point_maps,
     grid_plus,
     lands_inside,
     projective_maps,
@@ -144,3 +145,42 @@ def test_kernels_let_other_threads_run():
     start, end = span
     inside = [start, *(t for t in turns if start < t < end), end]
     assert max(np.diff(inside)) < 0.5 * (end - start)
+
+
+def _fixed_point_reference(f, rounds):
+    """``s = p + f(s)`` iterated ``rounds`` times in float64 (bilinear, position clamped)."""
+    h, w = f.shape[:2]
+    gx, gy = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    f64 = f.astype(np.float64)
+    sx, sy = gx + f64[..., 0], gy + f64[..., 1]
+    for _ in range(rounds):
+        cx, cy = np.clip(sx, 0, w - 1), np.clip(sy, 0, h - 1)
+        x0, y0 = np.floor(cx).astype(int), np.floor(cy).astype(int)
+        x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+        ax, ay = (cx - x0)[..., None], (cy - y0)[..., None]
+        v = ((f64[y0, x0] * (1 - ax) + f64[y0, x1] * ax) * (1 - ay)
+             + (f64[y1, x0] * (1 - ax) + f64[y1, x1] * ax) * ay)
+        sx, sy = gx + v[..., 0], gy + v[..., 1]
+    return sx, sy
+
+
+def test_fixed_point_maps_reach_the_fixed_point():
+    h, w = 54, 96
+    f = cv2.GaussianBlur(_field(h, w, 9), (0, 0), 6.0) * 5  # gradient 0.33: it converges
+    f[..., 0] += 4.0
+    ex, ey = _fixed_point_reference(f, 60)
+    fine = fixed_point_maps(f, 40, 1e-5)
+    assert np.abs(fine[0] - ex).max() < 1e-3 and np.abs(fine[1] - ey).max() < 1e-3
+    mx, my = fixed_point_maps(f, 6, 0.01)  # stopped at a step under 0.01 px
+    assert np.abs(mx - ex).max() < 0.01 and np.abs(my - ey).max() < 0.01
+    # A step at most: each pixel's first iterate, the reference's first round.
+    one = fixed_point_maps(f, 1, 0.0)
+    rx, ry = _fixed_point_reference(f, 1)
+    assert np.abs(one[0] - rx).max() < 1e-3 and np.abs(one[1] - ry).max() < 1e-3
+    # OpenCV's sampling (1/32 px positions) iterated to the same tolerance: within it.
+    gx, gy = pixel_grid(h, w)
+    sx, sy = gx + f[..., 0], gy + f[..., 1]
+    for _ in range(6):
+        fs = cv2.remap(f, sx, sy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        sx, sy = gx + fs[..., 0], gy + fs[..., 1]
+    assert np.abs(mx - sx).max() < 0.02 and np.abs(my - sy).max() < 0.02

@@ -338,6 +338,7 @@ def warm_up() -> float:
     kernels_field.projective_maps(np.zeros(8), f)
     kernels_field.grid_plus(f, 1, 2)
     kernels_field.lands_inside(f)
+    kernels_field.fixed_point_maps(f, 2, 0.01)
     kernels_field.map_rows(e, np.zeros(4, np.int64), rows, rows, 0, 2, e)
     kernels_field.outside_in_rows(ok.view(np.uint8), e, e, np.zeros(4, np.int64), rows, rows)
     kernels_drift.drift_costs(np.zeros(2), [(e, 1.0)], np.ones((2, 2)), np.arange(3.0),

