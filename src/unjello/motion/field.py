@@ -207,9 +207,9 @@ def _moment_table() -> np.ndarray:
     for j in range(8):
         for k in range(8):
             for col in (u, v):
-                if col[j] is not None and col[k] is not None:
-                    table[8 * j + k, powers.index((col[j][0] + col[k][0],
-                                                   col[j][1] + col[k][1]))] += 1
+                a, b = col[j], col[k]
+                if a is not None and b is not None:
+                    table[8 * j + k, powers.index((a[0] + b[0], a[1] + b[1]))] += 1
     return table
 
 

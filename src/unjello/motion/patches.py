@@ -44,8 +44,8 @@ def costlier(cur: np.ndarray, other: np.ndarray, maps: tuple[np.ndarray, np.ndar
         return cv2.absdiff(cv2.remap(other, *at, cv2.INTER_LINEAR,
                                      borderMode=cv2.BORDER_REPLICATE), cur)
 
-    return cv2.compare(cv2.boxFilter(cv2.subtract(miss(maps), miss(than)), -1,
-                                     (window, window)), 0.0, cv2.CMP_GT)
+    gap = cv2.boxFilter(cv2.subtract(miss(maps), miss(than)), -1, (window, window))
+    return (gap > 0).view(np.uint8) * np.uint8(255)
 
 
 def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
