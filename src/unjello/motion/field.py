@@ -15,6 +15,7 @@ import numpy as np
 from ..kernels import quadratic_ahead
 from ..kernels_field import fill_from_weights, projective_maps
 from ..timing import pixel_grid
+from .flow import median_along
 from .patches import costlier
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
@@ -237,7 +238,6 @@ def _projective_irls(xs: np.ndarray, ys: np.ndarray, target: np.ndarray, rounds:
     tu, tv = target[:n], target[n:]
     q = np.ones(n)  # the squared weights
     coef = np.zeros(8)
-    half = n // 2
     for _ in range(rounds):
         normal = (_MOMENTS @ (powers @ q)).reshape(8, 8)
         normal.flat[::9] += 1e-12
@@ -248,9 +248,7 @@ def _projective_irls(xs: np.ndarray, ys: np.ndarray, target: np.ndarray, rounds:
         du = coef[[0, 1, 2, 6, 7]] @ au - tu
         dv = coef[[3, 4, 5, 6, 7]] @ av - tv
         r = np.sqrt(du * du + dv * dv)
-        mid = np.partition(r, [half - 1, half] if n % 2 == 0 else [half])
-        median = 0.5 * (mid[half - 1] + mid[half]) if n % 2 == 0 else mid[half]
-        weight = 1.0 / np.maximum(r / (1.5 * median + 1e-3), 1.0)
+        weight = 1.0 / np.maximum(r / (1.5 * float(median_along(r)) + 1e-3), 1.0)
         q = weight * weight
     return coef
 
