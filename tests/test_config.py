@@ -44,7 +44,7 @@ def test_presets_are_library_objects(tmp_path):
     full = CorrectionConfig.from_preset("best").dense.flow
     assert (full.finest_scale, full.refinement, full.polish, full.fallback) == (None, 1, 0, None)
     checked = CorrectionConfig().dense.flow
-    assert (checked.finest_scale, checked.refinement, checked.polish) == (1, 3, 2)
+    assert (checked.finest_scale, checked.refinement, checked.polish) == (1, 3, 1)
     assert checked.fallback == full
     polished = CorrectionConfig().with_options(flow_detail="polished").dense.flow
     assert polished == dataclasses.replace(checked, fallback=None)

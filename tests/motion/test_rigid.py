@@ -116,6 +116,28 @@ def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, 
     assert spins[0].drift[0] == pytest.approx((NEAR - 1) * 0.25 * W, abs=1.5)
 
 
+def test_a_drift_needs_its_own_gain_not_a_rotations(poles, monkeypatch):
+    """A flat pole's drift is seen at its edges alone: one that explains it 2.7 times
+    better than the motion around it carries it (:data:`spin.DRIFT_GAIN`, 2.5), where a
+    rotation needs 3 (the rocket 10 %/0.4 pair's pole scored 2.9-3.1)."""
+    motion, sim, g = poles
+    k = 2
+    pole = _biggest_pole(sim[k].layer)
+
+    def track(t):
+        return motion(np.asarray(t, float) + k)
+
+    field = np.zeros((H, W, 2), np.float32)
+    drift = np.array([(NEAR - 1) * 0.25 * W, 0.0])
+    weak = Spin(np.array([100.0, 90.0]), 0.0, 10.0, 27.0, drift=drift)  # gain 2.7
+    monkeypatch.setattr(spin_module, "fit_drift", lambda *a, **kw: weak)
+    one = [(g[k - 1], -1.0)]
+    assert spin_module.DRIFT_GAIN < weak.gain < 3.0
+    assert keep_spinning(field, g[k], one, pole, track, 0.5, 1.0, rotations=False)[1]
+    assert not keep_spinning(field, g[k], one, pole, track, 0.5, 1.0, rotations=False,
+                             drift_gain=3.0)[1]
+
+
 def test_a_long_thin_object_is_fitted_no_rotation(poles, monkeypatch):
     """A pole whose drift the neighbours do not confirm (here: the neighbours swapped, so
     no drift explains it) is left to the motion around it; no rotation is searched for it

@@ -19,12 +19,14 @@ __all__ = ["DenseConfig", "POLISHED", "DETAILS"]
 DETAILS = ("full", "polished", "checked")
 
 #: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
-#: refinement iterations a level, then two at full resolution. Measured against other
-#: mixes (``docs/measurements.md``): the research pairs 28.74 / 31.45 dB with two, as with
-#: three (28.73 / 31.45 with one, 28.72 / 31.43 with none; ``full``: 28.78 / 31.57); the
-#: simulated suite within 0.001x of three (one: up to +0.003x; none: drone jello 0.63 ->
-#: 0.71x). Each iteration costs about 3 ms of one core on a 480 x 270 copy.
-POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 2}
+#: refinement iterations a level, then one at full resolution. Measured against other
+#: mixes (``docs/measurements.md``): the research pairs 28.80 / 31.45 dB with one, 28.81 /
+#: 31.45 with two (28.79 / 31.43 with none; ``full``: 28.78 / 31.57); the simulated suite
+#: within 0.002x of two (none: drone jello 0.63 -> 0.71x). A second iteration costs about
+#: 3 ms of one core on a 480 x 270 copy a frame pair; it was kept until the near pole it
+#: decided in a research-speed pair had a drift threshold of its own
+#: (:data:`~unjello.motion.spin.DRIFT_GAIN`).
+POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 1}
 
 
 @dataclass(frozen=True)
