@@ -325,13 +325,15 @@ class DenseMethod(SafeField):
         Under a vibration model the polished flows of the probe cost the simulated drone
         jello 0.06x (0.644x -> 0.704x of the uncorrected error; ``docs/measurements.md``);
         the frames are all still held while the probe decides, so their flows are measured
-        again (once per vibrating clip), and the pairs already started too.
+        again (once per vibrating clip), and the pairs already started too: every pair
+        measured with other settings than the vibration's (whatever the polish).
         """
         if not self.config.per_pixel:
             return
+        full = self._flow_settings
         held = list(self._frames)
         redo = [(prev, cur) for prev, cur in zip(held, held[1:], strict=False)
-                if cur.bwd is not None and cur.settings is not None and cur.settings.polish]
+                if cur.bwd is not None and cur.settings not in (None, full)]
         jobs = [self._measure(prev, cur) for prev, cur in redo]
         for (prev, cur), job in zip(redo, jobs, strict=True):
             job = job.result() if isinstance(job, Future) else job
@@ -340,8 +342,8 @@ class DenseMethod(SafeField):
         again = {cur.index: (prev, cur) for prev, cur in redo}
         self._equations = deque((i, self._row_equations(*again[i]) if i in again else eq)
                                 for i, eq in self._equations)
-        self._pending = deque((prev, cur, self._measure(prev, cur) if cur.settings is not None
-                               and cur.settings.polish else job)
+        self._pending = deque((prev, cur, self._measure(prev, cur)
+                               if cur.settings not in (None, full) else job)
                               for prev, cur, job in self._pending)
 
     def _ready(self, final: bool) -> list[FrameMotion]:
