@@ -21,10 +21,10 @@ DETAILS = ("full", "polished", "checked")
 #: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
 #: refinement iterations a level, then one at full resolution. Measured against other
 #: mixes (``docs/measurements.md``): the research pairs 28.80 / 31.45 dB with one, 28.81 /
-#: 31.45 with two (28.79 / 31.43 with none; ``full``: 28.78 / 31.57); the simulated suite
-#: within 0.002x of two (none: drone jello 0.63 -> 0.71x). A second iteration costs about
-#: 3 ms of one core on a 480 x 270 copy a frame pair; it was kept until the near pole it
-#: decided in a research-speed pair had a drift threshold of its own
+#: 31.45 with two, 28.79 / 31.43 with none (at the Carla floor issue 37 sets; ``full``:
+#: 28.78 / 31.57); the simulated suite within 0.002x of two. An iteration costs about 3 ms
+#: of one core a frame pair on a 480 x 270 copy; the second was kept until the near pole
+#: it decided in a ``benchmarks/edges.py`` pair had a drift threshold of its own
 #: (:data:`~unjello.motion.spin.DRIFT_GAIN`).
 POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 1}
 
