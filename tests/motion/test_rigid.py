@@ -37,6 +37,11 @@ def poles():
     return motion, sim, grey
 
 
+def _from_frame(motion, k):
+    """The camera's motion with time counted from frame ``k``'s start (a track)."""
+    return lambda t: motion(np.asarray(t, float) + k)
+
+
 def _biggest_pole(layer: np.ndarray) -> np.ndarray:
     ids, counts = np.unique(layer[layer > 0], return_counts=True)
     return layer == ids[np.argmax(counts)]
@@ -49,8 +54,7 @@ def test_the_drift_of_a_pole_is_its_own_velocity(poles):
     k = 2
     pole = _biggest_pole(sim[k].layer)
 
-    def track(t):
-        return motion(np.asarray(t, float) + k)
+    track = _from_frame(motion, k)
 
     spin = fit_drift(g[k], [(g[k - 1], -1.0), (g[k + 1], 1.0)], pole, track, 0.5, 1.0)
     assert spin is not None and spin.omega == 0.0
@@ -68,8 +72,7 @@ def test_a_pole_is_no_spinner(poles):
     k = 2
     pole = _biggest_pole(sim[k].layer)
 
-    def track(t):
-        return motion(np.asarray(t, float) + k)
+    track = _from_frame(motion, k)
 
     field = np.zeros((H, W, 2), np.float32)
     _, spins, weight, candidates, fronts = keep_spinning(
@@ -86,8 +89,7 @@ def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, 
     k = 2
     pole = _biggest_pole(sim[k].layer)
 
-    def track(t):
-        return motion(np.asarray(t, float) + k)
+    track = _from_frame(motion, k)
 
     one = [(g[k - 1], -1.0)]
     field = np.zeros((H, W, 2), np.float32)
@@ -103,10 +105,7 @@ def test_a_pole_seen_from_one_side_is_carried_along_the_motion_around_it(poles, 
     assert keep_spinning(field, g[k], [*one, (g[k + 1], 1.0)], pole, track, 0.5, 1.0)[1]
     monkeypatch.undo()
     k = 3
-
-    def later(t):
-        return motion(np.asarray(t, float) + k)
-
+    later = _from_frame(motion, k)
     leaving = sim[k].layer[:, -1]
     at_side = sim[k].layer == leaving[leaving > 0][0]  # a pole leaving at the right
     one = [(g[k - 1], -1.0)]
@@ -124,8 +123,7 @@ def test_a_drift_needs_its_own_gain_not_a_rotations(poles, monkeypatch):
     k = 2
     pole = _biggest_pole(sim[k].layer)
 
-    def track(t):
-        return motion(np.asarray(t, float) + k)
+    track = _from_frame(motion, k)
 
     field = np.zeros((H, W, 2), np.float32)
     drift = np.array([(NEAR - 1) * 0.25 * W, 0.0])
@@ -154,8 +152,7 @@ def test_a_long_thin_object_is_fitted_no_rotation(poles, monkeypatch):
 
     monkeypatch.setattr(spin_module, "fit_spin", no_rotation)
 
-    def track(t):
-        return motion(np.asarray(t, float) + k)
+    track = _from_frame(motion, k)
 
     field = np.zeros((H, W, 2), np.float32)
     out, spins, weight, candidates, _ = keep_spinning(
