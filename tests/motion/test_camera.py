@@ -47,3 +47,21 @@ def test_robust_rounds_keep_an_abrupt_start_sharp():
         est -= est[0] - d(t)[0]
         errors.append(np.abs(est - d(t)).max())
     assert errors[1] < 0.5 * errors[0]
+
+
+def test_rows_no_equation_reaches_keep_the_velocity_of_the_rows_beside_them():
+    # A constant pan of 64 px a frame, readout 0.4: the top fifth of every frame's rows
+    # entered it and has no equation (a fast diagonal pan). Those rows' camera velocity
+    # (the path's plus the row velocity's) stays the pan's instead of falling to the
+    # path's alone.
+    h, rho, v = 90, 0.4, 64.0
+    y = np.arange(int(0.22 * h), h, dtype=float)
+    ks = np.repeat(np.arange(1, 5), y.size)
+    yy = np.tile(y, 4)
+    ta, tb = ks + rho * yy / h, ks - 1 + rho * yy / h
+    delta = np.stack([v * (ta - tb), np.zeros_like(ta)], axis=1)
+    sol = solve_camera_trajectory(ta, tb, yy / (h - 1), delta, np.ones_like(ta), rho / 32,
+                                  3e-3)
+    path = np.gradient(sol.c[:, 0], sol.step)[len(sol.c) // 2]
+    assert abs(path + sol.u[0, 0] - v) < 0.03 * v  # the top row: unseen by any equation
+    assert abs(path + sol.u[-1, 0] - v) < 0.01 * v

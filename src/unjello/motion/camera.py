@@ -18,8 +18,8 @@ import numpy as np
 from scipy import linalg
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["BLAS", "SINE_RIDGE", "ROBUST_KNEE", "CameraSolution", "solve_camera_trajectory",
-           "second_difference_band"]
+__all__ = ["BLAS", "SINE_RIDGE", "ROBUST_KNEE", "KNOT_SEEN", "KNOT_TIE", "CameraSolution",
+           "solve_camera_trajectory", "second_difference_band"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
@@ -32,6 +32,14 @@ SINE_RIDGE = 1e-3
 # Acceleration beyond this many times the median is penalised by its size rather than its
 # square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
 ROBUST_KNEE = 3.0
+
+#: A knot of the row velocity that the equations reach with less than this share of the
+#: median knot's weight is partly unseen: its ridge fades and it is tied to its
+#: neighbours by up to :data:`KNOT_TIE` (relative to the total weight). In a diagonal pan
+#: of 64 x 38 px a frame (320 x 180, readout 0.4) no equation reached the top fifth of the
+#: rows, whose camera then stood still (-0.6 px at the top row where the scene moved -12.7
+#: px; ``docs/measurements.md``).
+KNOT_SEEN, KNOT_TIE = 0.1, 0.1
 
 def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,
                                                                                   np.ndarray,
@@ -125,6 +133,31 @@ class CameraSolution:
                                                                         self.c[:, i])
                          + np.interp(rows, knots, self.u[:, i]) * (t_a - t_b)
                          for i in range(2)], axis=1)
+
+
+def _knot_penalty(reach: np.ndarray) -> np.ndarray:
+    """Penalty on the row velocity's knots, given how much data reaches each (k, k).
+
+    Roughness (second differences, 1e-3) and a ridge (1e-4) on every knot the equations
+    reach with at least :data:`KNOT_SEEN` of the median knot's weight; below that the
+    ridge fades and a tie to the neighbouring knots (:data:`KNOT_TIE`) takes over, so
+    that rows no equation reaches keep the velocity of the rows beside them. Where every
+    knot is reached, the ridge and roughness alone, as before.
+
+    Examples
+    --------
+    >>> p = _knot_penalty(np.array([0.0, 0.0, 5.0, 5.0, 5.0]))
+    >>> bool(p[0, 0] > 0.05 and abs(p[0, 1]) > 0.05), round(float(p[4, 4]), 4)
+    (True, 0.0011)
+    """
+    k = reach.size
+    seen = np.ones(k)
+    if (reach > 0).any():
+        seen = np.clip(reach / (KNOT_SEEN * float(np.median(reach[reach > 0]))), 0.0, 1.0)
+    d1 = np.diff(np.eye(k), axis=0)
+    tie = 1.0 - np.minimum(seen[1:], seen[:-1])
+    return (1e-3 * _band_to_dense(second_difference_band(k)) + 1e-4 * np.diag(seen)
+            + KNOT_TIE * d1.T @ (tie[:, None] * d1))
 
 
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
@@ -239,9 +272,11 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
     data_band = band.copy()
     band[bw - 2:] += smoothness * scale / step**3 * second_difference_band(n)
     if ku:
-        # u: small roughness and ridge penalties (a constant velocity belongs to c).
-        c_uu[:ku, :ku] += (1e-3 * scale * _band_to_dense(second_difference_band(ku))
-                           + 1e-4 * scale * np.eye(ku))
+        # u: small roughness and ridge penalties (a constant velocity belongs to c). A
+        # knot that few equations reach (rows with no reliable flow: the rows entering at
+        # the top of a fast vertical pan, flat sky) is tied to its neighbours instead of
+        # pulled to zero, which stopped those rows' camera (:func:`_knot_penalty`).
+        c_uu[:ku, :ku] += scale * _knot_penalty(np.diag(c_uu)[:ku])
     if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
         c_uu[ku:, ku:] += SINE_RIDGE * scale * np.eye(k - ku)
     jitter = 1e-9 * ((band[bw].sum() + np.trace(c_uu)) / (n + k) + 1e-12)
