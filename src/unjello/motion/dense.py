@@ -192,10 +192,13 @@ class DenseMethod(SafeField):
             job: Callable[..., tuple] = _row_flow
         else:
             cur.settings = self._flow_settings
-            key = (prev.start, cur.start, cur.image.shape, self.timing.direction, cur.settings)
+            key = self._flow_key(prev, cur)
             if self._flows is not None and key in self._flows:
                 return self._flows[key]
-            args, job = (prev.image, cur.image, cur.settings), flow_pair
+            # The first pair has no pace to start from (:meth:`_steady`): where content
+            # enters, flows nothing confirms are not kept.
+            args, job = (prev.image, cur.image, cur.settings, 0, False, None,
+                         prev.index == 0), flow_pair
         return self._executor.submit(job, *args) if self._executor is not None else job(*args)
 
     @property
@@ -276,8 +279,12 @@ class DenseMethod(SafeField):
     def _keep_flows(self, prev: DenseFrame, cur: DenseFrame, job: tuple) -> None:
         """Keep a pair's measured flows for the caller's other methods (if it keeps them)."""
         if self._flows is not None:
-            self._flows[(prev.start, cur.start, cur.image.shape, self.timing.direction,
-                         cur.settings)] = job
+            self._flows[self._flow_key(prev, cur)] = job
+
+    def _flow_key(self, prev: DenseFrame, cur: DenseFrame) -> tuple:
+        """Return the key a pair's measured flows are kept under for the caller's other methods."""
+        return (prev.start, cur.start, cur.image.shape, self.timing.direction, cur.settings,
+                prev.index == 0)
 
     def _row_equations(self, prev: DenseFrame, cur: DenseFrame) -> tuple:
         """Row flows of ``cur`` -> equations ``c(t_a) - c(t_b) + u(y)(t_a - t_b) = delta``."""

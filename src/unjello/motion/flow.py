@@ -18,7 +18,7 @@ from ..errors import SettingsError
 from ..kernels import consistency, shorth_sorted
 from ..kernels_field import grid_plus
 from ..timing import pixel_grid
-from .patches import patch_cost, refine_motion_edges
+from .patches import patch_cost, refine_motion_edges, unmatched_entering
 
 __all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
            "consistent", "row_flows", "half_row_flows", "invert_flow", "flow_pair", "explains",
@@ -153,7 +153,7 @@ def _polisher(iterations: int) -> cv2.VariationalRefinement:
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  max_width: int = 960, finest_scale: int | None = None,
                  refinement: int | None = None, polish: int = 0,
-                 expect: np.ndarray | None = None) -> np.ndarray:
+                 expect: np.ndarray | None = None, entering: bool = False) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
     Where the frame's global translation (:func:`global_shift`) is large
@@ -184,6 +184,11 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         research pairs (``docs/measurements.md``).
     expect : ndarray of shape (2,), optional
         A translation ``(dx, dy)`` (full-resolution pixels) to start DIS from as well.
+    entering : bool
+        Where the global translation is large, the pixels it carries outside ``b``
+        (content entering the frame) whose flow nothing confirms take the translation
+        (:func:`~unjello.motion.patches.unmatched_entering`): for a pair no earlier
+        pair's pace guides.
 
     Returns
     -------
@@ -212,6 +217,8 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     shift, response = global_shift(a8, b8)
     if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
         flow = started(shift, whole=response < _SHIFT_RESPONSE)
+        if entering:
+            flow[unmatched_entering(a8, b8, flow, shift, _PICK_PATCH)] = shift
     if expect is not None:
         flow = started(np.asarray(expect, np.float32) * scale, whole=True)
     if polish > 0:
@@ -464,7 +471,8 @@ class FlowSettings:
 
 
 def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_width: int = 0,
-              two_way: bool = False, expect: np.ndarray | None = None
+              two_way: bool = False, expect: np.ndarray | None = None,
+              entering: bool = False
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Flows between two frames both ways, each with its forward-backward check.
 
@@ -474,7 +482,7 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_wid
     check that rejects more wrong flow (the readout estimate needs it), at twice the cost.
     A flow that does not explain the pair (:func:`explains`) is measured again with the
     settings' ``fallback``. ``expect``: a translation of ``cur`` to ``prev`` to start the
-    flow from as well (:func:`optical_flow`).
+    flow from as well; ``entering``: check where content enters (both :func:`optical_flow`).
 
     Returns
     -------
@@ -487,9 +495,9 @@ def flow_pair(prev: np.ndarray, cur: np.ndarray, settings: FlowSettings, max_wid
     refinement = settings.refinement if medium else None
     polish = settings.polish if medium else 0
     bwd = optical_flow(cur, prev, settings.preset, max_width, settings.finest_scale,
-                       refinement, polish, expect)
+                       refinement, polish, expect, entering)
     if settings.fallback is not None and not explains(prev, cur, bwd):
-        return flow_pair(prev, cur, settings.fallback, max_width, two_way, expect)
+        return flow_pair(prev, cur, settings.fallback, max_width, two_way, expect, entering)
     if settings.edge_refine:
         bwd = refine_motion_edges(np.asarray(cur, np.float32), np.asarray(prev, np.float32),
                                   bwd)

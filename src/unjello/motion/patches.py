@@ -1,9 +1,10 @@
 """Flows scored over patches, and sharpened at motion boundaries.
 
 The photometric cost of a flow (or any map) over square patches -- what picks between
-two flows, between the flow and the global motion, and between the flows of the two
-sides of a motion boundary, which DIS smooths across
-(:func:`refine_motion_edges`). Sign as in :mod:`unjello.motion.flow`.
+two flows, between the flow and the global motion (also where content enters the frame,
+:func:`unmatched_entering`), and between the flows of the two sides of a motion
+boundary, which DIS smooths across (:func:`refine_motion_edges`). Sign as in
+:mod:`unjello.motion.flow`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,20 @@ import numpy as np
 
 from ..timing import pixel_grid
 
-__all__ = ["patch_cost", "map_cost", "costlier", "refine_motion_edges"]
+__all__ = ["patch_cost", "map_cost", "costlier", "unmatched_entering", "refine_motion_edges",
+           "ENTER_COST", "ENTER_FLAT", "ENTER_AGREE"]
+
+#: Where content enters the frame (:func:`unmatched_entering`), a flow is kept only if its
+#: patch cost is at most this many times the median cost of the rest of the frame's ...
+ENTER_COST = 10.0
+#: ... and only on two-dimensional texture: the patch mean of the structure tensor's
+#: smaller eigenvalue (:func:`cv2.cornerMinEigenVal`, 5 px) at least this share of its
+#: 90th percentile in the frame. Flat sky or wall matches any flow.
+ENTER_FLAT = 0.02
+#: ... and only where the flow outside the band moves as the translation does (its
+#: median within this share of it, 2 px at least): a phase correlation on a fast
+#: vertical pan (readout 1.0) found +87 px where the rows moved -47.
+ENTER_AGREE = 0.1
 
 
 def patch_cost(cur: np.ndarray, other: np.ndarray, gx: np.ndarray, gy: np.ndarray,
@@ -46,6 +60,53 @@ def costlier(cur: np.ndarray, other: np.ndarray, maps: tuple[np.ndarray, np.ndar
 
     gap = cv2.boxFilter(cv2.subtract(miss(maps), miss(than)), -1, (window, window))
     return (gap > 0).view(np.uint8) * np.uint8(255)
+
+
+def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
+                       shift: np.ndarray, window: int) -> np.ndarray:
+    """Where content enters the frame, the flows that nothing confirms: a mask.
+
+    Where the frame's translation ``shift`` carries a pixel of ``cur`` outside ``other``,
+    ``other`` did not see it, unless it moves on its own (a near pole, a car). A flow
+    landing inside there is kept only where it matches ``other`` well over a patch (at
+    most :data:`ENTER_COST` times the median patch cost elsewhere, 2 grey levels at
+    least) on two-dimensional texture (:data:`ENTER_FLAT`), where the flow elsewhere
+    confirms the translation (:data:`ENTER_AGREE`): in a fast diagonal pan DIS
+    carried the rows entering at the top onto whatever looked alike in ``other`` (a
+    flat wall at -6 px where the frame moved -70), and its own inverse passed them as
+    consistent (``docs/measurements.md``).
+
+    Parameters
+    ----------
+    cur, other : ndarray of shape (h, w), uint8 or float32
+        The frame and the one the flow points to (grey).
+    flow : ndarray of shape (h, w, 2)
+        Flow from ``cur`` to ``other`` (``cur(s) ~ other(s + flow(s))``).
+    shift : ndarray of shape (2,)
+        The frame's translation, as ``flow``.
+    window : int
+        Side of the patches (px).
+
+    Returns
+    -------
+    ndarray of bool, shape (h, w)
+        The pixels of the band whose flow nothing confirms (the caller gives them
+        ``shift``: they then land outside, as entering content does).
+    """
+    h, w = cur.shape[:2]
+    gx, gy = pixel_grid(h, w)
+    sx, sy = gx + np.float32(shift[0]), gy + np.float32(shift[1])
+    band = (sx < 0) | (sx > w - 1) | (sy < 0) | (sy > h - 1)
+    rest = flow[~band] if band.any() and not band.all() else np.zeros((0, 2))
+    if not rest.size or np.hypot(*(np.median(rest, axis=0) - shift)) > max(
+            2.0, ENTER_AGREE * float(np.hypot(*shift))):
+        return np.zeros((h, w), bool)  # no band, or a translation the flow does not share
+    cf, of = np.asarray(cur, np.float32), np.asarray(other, np.float32)
+    cost = patch_cost(cf, of, gx, gy, np.asarray(flow, np.float32), window)
+    level = max(2.0, ENTER_COST * float(np.median(cost[~band])))
+    texture = cv2.boxFilter(cv2.cornerMinEigenVal(cf, 5), -1, (window, window))
+    flat = texture < ENTER_FLAT * float(np.percentile(texture, 90))
+    return band & ((cost > level) | flat)
 
 
 def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
