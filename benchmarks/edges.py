@@ -25,9 +25,14 @@ their rows within 1 px; the share of pixels none saw, true / as the run reports 
 (``unseen``, ``correct --json``); and the frames whose correction still folds or tears
 more than ``FOLD_WARNING`` of the picture (the run's warning).
 
+``--direction diagonal`` pans down as well, 0.6 times as fast as across; ``y`` only down
+(a tilt: the rows entering at the top were seen by no earlier frame), the speed still a
+share of the width.
+
 Usage::
 
     python benchmarks/edges.py [--size 320x180] [--scenes astronaut,rocket] [--near 1.3]
+                               [--direction x|diagonal|y]
 """
 
 from __future__ import annotations
@@ -127,13 +132,21 @@ def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
     return out
 
 
+#: Pan directions (``--direction``): the motion of a pan of ``speed`` px a frame.
+DIRECTIONS = {
+    "x": lambda speed: Motion("pan", speed=speed),
+    "diagonal": lambda speed: Motion.steps([(speed, 0.6 * speed)], [100.0]),
+    "y": lambda speed: Motion.steps([(0.0, speed)], [100.0]),
+}
+
+
 def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[int, int],
-        near: float = 1.3) -> dict:
+        near: float = 1.3, direction: str = "x") -> dict:
     """One case: simulate, correct by default, score."""
     w, h = size
     scene = getattr(data, scene_name)()
     timing = SensorTiming(readout)
-    motion = Motion("pan", speed=frac * w)
+    motion = DIRECTIONS[direction](frac * w)
     layers = []
     if near > 1.0:
         d = motion(np.linspace(-1.0, frames + 1.0, 64))[:, 0]
@@ -184,10 +197,14 @@ def main() -> None:
     ap.add_argument("--near", type=float, default=1.3,
                     help="the poles' nearness (they move this times the background; 1: none; "
                          "1.0001: as far as the background)")
+    ap.add_argument("--direction", choices=sorted(DIRECTIONS), default="x",
+                    help="pan across (x), across and down (diagonal: 0.6 as fast down) or "
+                         "down (y)")
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
-    print(f"{size[0]}x{size[1]}, flat poles in front ({args.near}x parallax); PSNR (dB) input -> "
-          "default; the strip seen by the previous frame, by the next, by none")
+    print(f"{size[0]}x{size[1]}, pan {args.direction}, flat poles in front ({args.near}x "
+          "parallax); PSNR (dB) input -> default; the strip seen by the previous frame, by the "
+          "next, by none")
     print(f"{'scene':10} {'kind':5} {'speed':>5} {'rho':>4} {'strip%':>6} "
           f"{'strip: prev':>15} {'next':>15} {'none':>15} {'interior':>15} {'frame':>15} "
           f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'rows <= 1 px':>14} "
@@ -196,7 +213,7 @@ def main() -> None:
         for frac, readout in SPEEDS:
             for kind, frames in (("clip", 10), ("pair", 2)):
                 r = run(scene, frac, readout, frames, size,  # type: ignore[arg-type]
-                        args.near)
+                        args.near, args.direction)
 
                 def pair(name: str, r: dict = r) -> str:
                     return f"{r['in_' + name]:6.2f} -> {r['out_' + name]:5.2f}".replace(
