@@ -97,15 +97,16 @@ def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
     gx, gy = pixel_grid(h, w)
     sx, sy = gx + np.float32(shift[0]), gy + np.float32(shift[1])
     band = (sx < 0) | (sx > w - 1) | (sy < 0) | (sy > h - 1)
-    rest = flow[~band] if band.any() and not band.all() else np.zeros((0, 2))
-    if not rest.size or np.hypot(*(np.median(rest, axis=0) - shift)) > max(
+    sub = (slice(None, None, 4), slice(None, None, 4))  # medians of every 16th pixel
+    rest = flow[sub][~band[sub]]
+    if not rest.size or band[sub].all() or np.hypot(*(np.median(rest, axis=0) - shift)) > max(
             2.0, ENTER_AGREE * float(np.hypot(*shift))):
         return np.zeros((h, w), bool)  # no band, or a translation the flow does not share
     cf, of = np.asarray(cur, np.float32), np.asarray(other, np.float32)
     cost = patch_cost(cf, of, gx, gy, np.asarray(flow, np.float32), window)
-    level = max(2.0, ENTER_COST * float(np.median(cost[~band])))
+    level = max(2.0, ENTER_COST * float(np.median(cost[sub][~band[sub]])))
     texture = cv2.boxFilter(cv2.cornerMinEigenVal(cf, 5), -1, (window, window))
-    flat = texture < ENTER_FLAT * float(np.percentile(texture, 90))
+    flat = texture < ENTER_FLAT * float(np.percentile(texture[sub], 90))
     return band & ((cost > level) | flat)
 
 
