@@ -82,6 +82,15 @@ EDGE, EDGED = 20.0, 0.02
 #: 10 %/0.4 pair's near pole, fitted its true drift, scored 2.92-3.08 by the flow's detail
 #: (``docs/measurements.md``).
 DRIFT_GAIN = 2.5
+
+#: A region more than this share of which, carried by the camera's motion, lands outside
+#: both neighbours is fitted nothing (:func:`keep_spinning`): no frame can check a motion
+#: there. A diagonal pan brings such a corner in at one side and out at the other; a
+#: drift "explained" it by landing on whatever looked alike (the astronaut's diagonal
+#: 15 %/1.0 clip: two frames, 0.089x -> 0.032x and 0.070x -> 0.044x, once not fitted;
+#: ``docs/measurements.md``). With one neighbour all content entering is so, and a near
+#: pole entering is fitted its drift there: the test is for two.
+UNCHECKED = 0.25
 #: Seen from one side only, a drift is taken only where it points the way the motion
 #: around the object does (the cosine of their angle at least this): a nearer object in
 #: a pan (parallax). One side alone lets a flat region match a drift backwards.
@@ -366,6 +375,25 @@ def _along(drift: np.ndarray, behind: np.ndarray) -> bool:
     return norm > 0 and float(np.dot(drift, behind)) >= ALONG * norm
 
 
+def _unchecked(shape: tuple[int, int], others: Sequence[tuple[np.ndarray, float]],
+               track: Track, readout: float) -> np.ndarray:
+    """Pixels that the camera's motion (``track``) carries outside every neighbour (bool).
+
+    Each row is moved by the track's change from its own time to the same row's time in
+    the neighbour (``readout`` of a frame interval from the first row to the last).
+    """
+    h, w = shape
+    t_rows = readout * np.arange(h) / h
+    cols = np.arange(w, dtype=np.float64)[None, :]
+    rows = np.arange(h, dtype=np.float64)[:, None]
+    out = np.ones(shape, bool)
+    for _, offset in others:
+        d = at(track, t_rows + offset) - at(track, t_rows)
+        x, y = cols + d[:, :1], rows + d[:, 1:]
+        out &= (x < 0) | (x > w - 1) | (y < 0) | (y > h - 1)
+    return out
+
+
 def keep_spinning(field: np.ndarray, image: np.ndarray,
                   others: Sequence[tuple[np.ndarray, float]], seeds: np.ndarray,
                   track: Track, t_ref: float, readout: float, *,
@@ -399,7 +427,8 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     rotation's source (:func:`spin_source`) and the weight come back as a layer in front of
     the field. A rotation, or a drift against the motion around it, whose pixels show no
     edges of their own (:func:`_edged`: flat sky a neighbour shows a near pole over) is
-    not used.
+    not used. With a neighbour on each side, a region mostly carried outside both by the
+    camera's motion (:data:`UNCHECKED`) is fitted nothing.
 
     Returns
     -------
@@ -415,13 +444,16 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         <unjello.trajectory.FrameMotion>`): :func:`spin_source` and the weight.
     """
     labels = spin_regions(seeds, image, others, track, t_ref, readout)
+    unchecked = _unchecked(seeds.shape, others, track, readout) if len(others) >= 2 else None
     behind = (at(track, np.array([t_ref + 0.5])) - at(track, np.array([t_ref - 0.5])))[0]
     out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
     areas = np.bincount(labels.ravel())[1:]
     for i in 1 + np.argsort(-areas)[:MAX_OBJECTS]:  # the largest, to bound the cost
         region = labels == i
-        if region.sum() < min_area:
+        if region.sum() < min_area or (
+                unchecked is not None
+                and (region & unchecked).sum() > UNCHECKED * region.sum()):
             continue
         radius = float(np.sqrt(region.sum() / np.pi))
 
