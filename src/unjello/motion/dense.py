@@ -37,6 +37,7 @@ still first frame is assumed: every frame is corrected to its own reference time
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections import deque
 from collections.abc import Callable, MutableMapping
 from concurrent.futures import Executor, Future
@@ -197,8 +198,8 @@ class DenseMethod(SafeField):
                 return self._flows[key]
             # The first pair has no pace to start from (:meth:`_steady`): where content
             # enters, flows nothing confirms are not kept.
-            args, job = (prev.image, cur.image, cur.settings, 0, False, None,
-                         prev.index == 0), flow_pair
+            args = (prev.image, cur.image, cur.settings)
+            job = functools.partial(flow_pair, entering=prev.index == 0)
         return self._executor.submit(job, *args) if self._executor is not None else job(*args)
 
     @property

@@ -99,7 +99,7 @@ def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
     band = (sx < 0) | (sx > w - 1) | (sy < 0) | (sy > h - 1)
     sub = (slice(None, None, 4), slice(None, None, 4))  # medians of every 16th pixel
     rest = flow[sub][~band[sub]]
-    if not rest.size or band[sub].all() or np.hypot(*(np.median(rest, axis=0) - shift)) > max(
+    if not rest.size or np.hypot(*(np.median(rest, axis=0) - shift)) > max(
             2.0, ENTER_AGREE * float(np.hypot(*shift))):
         return np.zeros((h, w), bool)  # no band, or a translation the flow does not share
     cf, of = np.asarray(cur, np.float32), np.asarray(other, np.float32)

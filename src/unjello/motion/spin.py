@@ -34,6 +34,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
+from ..kernels_field import grid_plus
 from .rigid import (
     MOVING,
     Spin,
@@ -384,13 +385,10 @@ def _unchecked(shape: tuple[int, int], others: Sequence[tuple[np.ndarray, float]
     """
     h, w = shape
     t_rows = readout * np.arange(h) / h
-    cols = np.arange(w, dtype=np.float64)[None, :]
-    rows = np.arange(h, dtype=np.float64)[:, None]
     out = np.ones(shape, bool)
     for _, offset in others:
-        d = at(track, t_rows + offset) - at(track, t_rows)
-        x, y = cols + d[:, :1], rows + d[:, 1:]
-        out &= (x < 0) | (x > w - 1) | (y < 0) | (y > h - 1)
+        d = (at(track, t_rows + offset) - at(track, t_rows)).astype(np.float32)
+        out &= ~grid_plus(np.ascontiguousarray(np.broadcast_to(d[:, None], (h, w, 2))))[2]
     return out
 
 
