@@ -20,7 +20,8 @@ from .neighbours import INSET, sample_points
 from .uncovered import UNIFORM
 
 __all__ = ["EdgeObject", "edge_objects", "settled_objects", "objects_beyond",
-           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE", "MISSED"]
+           "NEAR_REFERENCE", "FASTER", "RUN", "BAND", "SEARCH", "HELD", "ALIKE", "MISSED",
+           "CORE", "BESIDE"]
 
 #: Rows of the field within this share of the readout of the reference scanline do not
 #: measure an object's velocity (its displacement there is near zero whatever it is).
@@ -44,6 +45,13 @@ ALIKE = 10.0
 #: must all be unlike the object for a neighbour's look of it there to be refused
 #: (:func:`objects_beyond`).
 MISSED = 2.0
+#: An object's core is its band's fastest quarter; where that is all background
+#: (:func:`settled_objects`), the pixels at least as fast as that quarter less this share
+#: of its lead on the background are looked at too.
+CORE = 0.25
+#: Farthest (grid columns inward of the band) the background beside an object is looked
+#: for (:func:`settled_objects`: a core pixel like it is no part of the object).
+BESIDE = 24
 #: :func:`objects_beyond`'s mark of a pixel re-read along the background's motion.
 _REREAD = 99
 
@@ -54,7 +62,10 @@ class EdgeObject:
 
     ``side``: -1 the left, 1 the right; ``rows`` and ``cols``: the grid pixels near the
     side whose field is its core (rows ascending); ``velocity``: its image velocity (grid
-    pixels a frame interval, x and y); ``behind``: its background's.
+    pixels a frame interval, x and y); ``behind``: its background's; ``beside``: per core
+    pixel, the nearest column inward whose field is the background's (-1: none near);
+    ``wider``: rows, columns and ``beside`` of the band's pixels a little slower than the
+    core (:data:`CORE`), where it turns out to be background (:func:`settled_objects`).
     """
 
     side: int
@@ -62,6 +73,8 @@ class EdgeObject:
     cols: np.ndarray
     velocity: tuple[float, float]
     behind: tuple[float, float]
+    beside: np.ndarray | None = None
+    wider: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
 def edge_objects(field: np.ndarray, readout: float, reference_row: float
@@ -131,8 +144,11 @@ def edge_objects(field: np.ndarray, readout: float, reference_row: float
             # Its field blends into the background's at its outline: the core's.
             ry, rx = np.nonzero(faster)
             mine = vel[ry, rx]
-            fast = (mine * back[lo:hi].mean(axis=0)).sum(axis=1)
-            core = fast >= np.percentile(fast, 75)
+            base = back[lo:hi].mean(axis=0)
+            fast = (mine * base).sum(axis=1)
+            top = np.percentile(fast, 75)
+            core = fast >= top
+            near = ~core & (fast >= top - CORE * (top - float(base @ base)))
             v = np.median(mine[core], axis=0)
             b = np.median(back[lo:hi], axis=0)
             if (np.unique(ry[core]).size < RUN // 2
@@ -141,9 +157,79 @@ def edge_objects(field: np.ndarray, readout: float, reference_row: float
             # Across its length an upright object's motion is unsure (the aperture: a
             # rigid fit gave a pole moving along a pan 9 px a frame of vertical motion):
             # it moves vertically as its background.
-            out.append(EdgeObject(side, far[lo:hi][ry[core]], np.arange(w)[band][rx[core]],
-                                  (float(v[0]), float(b[1])), (float(b[0]), float(b[1]))))
+            rows_, cols_ = far[lo:hi][ry], np.arange(w)[band][rx]
+            beside = _beside(field, tau, rows_, band, side, v, b)
+            out.append(EdgeObject(side, rows_[core], cols_[core],
+                                  (float(v[0]), float(b[1])), (float(b[0]), float(b[1])),
+                                  beside[core], (rows_[near], cols_[near], beside[near])))
     return out
+
+
+def _standing_out(obj: EdgeObject, own: np.ndarray, seen: np.ndarray,
+                  scale: tuple[float, float]) -> tuple[EdgeObject, np.ndarray]:
+    """Return an object's core; where it is all like the background beside it, what is not.
+
+    The field, blending, carries an object's velocity onto flat background beside it (a
+    black wall above a pole entering the frame), whose look is then taken for the
+    object's. Where fewer than :data:`RUN` of the core's pixels are unlike the background
+    beside them in their row, those and the pixels a little slower (:data:`CORE`,
+    ``obj.wider``) that are unlike it are the core, if there are :data:`RUN` of them.
+    (Only then: a core that is partly background keeps its look, the median's, as
+    before -- the look of a dark pole's part alone had a rocket's dark details taken for
+    the pole in a neighbour.) Returns the object and the look (``seen``, this frame's
+    first plane ``own`` at the core).
+    """
+    sx, sy = scale
+
+    def unlike(rows: np.ndarray, cols: np.ndarray, beside: np.ndarray, look: np.ndarray
+               ) -> np.ndarray:
+        there = sample_points(own, (beside + 0.5) * sx - 0.5, (rows + 0.5) * sy - 0.5)
+        return (beside < 0) | (np.abs(there.astype(np.float32).reshape(look.shape)
+                                      - look).max(axis=1) > ALIKE)
+
+    assert obj.beside is not None
+    whole = seen
+    part = unlike(obj.rows, obj.cols, obj.beside, seen)
+    if part.sum() >= RUN or obj.wider is None or not obj.wider[0].size:
+        return dataclasses.replace(obj, wider=None), whole
+    rows, cols, beside = obj.rows[part], obj.cols[part], obj.beside[part]
+    seen = seen[part]
+    wr, wc, wb = obj.wider
+    look = sample_points(own, (wc + 0.5) * sx - 0.5, (wr + 0.5) * sy - 0.5
+                         ).astype(np.float32).reshape(wr.size, -1)
+    more = unlike(wr, wc, wb, look)
+    rows, cols, beside = (np.concatenate([a, b[more]]) for a, b in
+                          ((rows, wr), (cols, wc), (beside, wb)))
+    seen = np.concatenate([seen, look[more]])
+    if rows.size < RUN:  # nothing stands out: as it was
+        return dataclasses.replace(obj, wider=None), whole
+    order = np.argsort(rows, kind="stable")
+    rows, cols, beside, seen = rows[order], cols[order], beside[order], seen[order]
+    return dataclasses.replace(obj, rows=rows, cols=cols, beside=beside, wider=None), seen
+
+
+def _beside(field: np.ndarray, tau: np.ndarray, rows: np.ndarray, band: slice, side: int,
+            velocity: np.ndarray, behind: np.ndarray) -> np.ndarray:
+    """Per core pixel, the nearest column inward of ``band`` whose field is the background's.
+
+    Along the background's motion a column's velocity (``field / tau``) nearer the
+    background's (``behind``) than the object's (``velocity``) is the background beside the
+    object; -1 where none is within :data:`BESIDE` columns.
+    """
+    w = field.shape[1]
+    cols = (np.arange(band.stop, min(w, band.stop + BESIDE)) if side < 0
+            else np.arange(band.start - 1, max(-1, band.start - 1 - BESIDE), -1))
+    out = np.full(rows.size, -1)
+    if not cols.size:
+        return out
+    along = behind / max(float(np.hypot(*behind)), 1e-6)
+    gap = abs(float((velocity - behind) @ along))
+    uniq, at = np.unique(rows, return_inverse=True)
+    vel = field[uniq][:, cols] / tau[uniq, None, None]
+    like = np.abs(((vel - behind) * along).sum(axis=2)) < gap / 2
+    first = like.argmax(axis=1)
+    found = like[np.arange(uniq.size), first]
+    return np.where(found, cols[first], -1)[at]
 
 
 def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.ndarray],
@@ -165,7 +251,9 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
     least :data:`RUN`) is under :data:`HELD` is dropped: its velocity is not the one the
     pictures show. A kept object's core is what that neighbour showed alike there and not
     where the background's motion carries it, which :func:`objects_beyond` takes for the
-    object's look.
+    object's look. First, a core all like the background beside it in its rows (a flat
+    wall the field gave the object's velocity) is replaced by what of it and of the
+    slightly slower pixels is not (:func:`_standing_out`).
     """
     gh, gw = grid
     ph, pw = own.shape[:2]
@@ -174,6 +262,8 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
     for obj in objects:
         seen = sample_points(own, (obj.cols + 0.5) * sx - 0.5, (obj.rows + 0.5) * sy - 0.5
                        ).astype(np.float32).reshape(obj.rows.size, -1)
+        if obj.beside is not None:
+            obj, seen = _standing_out(obj, own, seen, (sx, sy))
 
         def shares(plane: np.ndarray, vx: np.ndarray, vy: float, dt: float,
                    among: np.ndarray | None = None, seen: np.ndarray = seen,
@@ -214,7 +304,8 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
         if best[1] >= HELD:
             kept.append(dataclasses.replace(
                 obj, velocity=(obj.velocity[0] + best[2], obj.velocity[1]),
-                rows=obj.rows[own_px], cols=obj.cols[own_px]))
+                rows=obj.rows[own_px], cols=obj.cols[own_px],
+                beside=None if obj.beside is None else obj.beside[own_px]))
     return kept
 
 
