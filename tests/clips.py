@@ -1,4 +1,4 @@
-"""Small test clips written with PyAV: pan video, audio, VFR pts, rotation."""
+"""Small test clips: written with PyAV (pan video, audio, VFR pts, rotation), or simulated."""
 
 from fractions import Fraction
 
@@ -7,6 +7,21 @@ import numpy as np
 
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
+
+
+def pole_pan(scene, share, readout, near=1.3, frames=10, size=(320, 180)):
+    """A pan of ``share`` of the width a frame past flat poles ``near`` times as near,
+    spaced as ``benchmarks/edges.py`` spaces them, simulated: (frames, pole layers)."""
+    from unjello.simulate import pole_layers
+
+    w = size[0]
+    motion = Motion("pan", speed=share * w)
+    d = motion(np.linspace(-1.0, frames + 1.0, 64))[:, 0]
+    apart = max(120.0, 2 * near * share * 640)
+    layers = pole_layers(motion, size, (float(d.min()), float(d.max())), near,
+                         gap=(apart, apart + 140.0))
+    return list(simulate(scene, motion, SensorTiming(readout), frames, size=size,
+                         layers=layers)), layers
 
 
 def motion_file_error(path, sim):

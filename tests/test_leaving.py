@@ -304,16 +304,11 @@ def test_a_pole_entering_below_a_black_wall_is_carried_beyond_the_edge_whole():
     from skimage import data
 
     from unjello.pipeline import correct_frames
-    from unjello.simulate import Motion, pole_layers, simulate
 
-    w, h = 320, 180
-    timing = SensorTiming(1.0)
-    motion = Motion("pan", speed=0.15 * w)
-    d = motion(np.linspace(-1.0, 11.0, 64))[:, 0]
-    layers = pole_layers(motion, (w, h), (float(d.min()), float(d.max())), 1.3,
-                         gap=(249.6, 389.6))
-    sim = list(simulate(data.astronaut(), motion, timing, 10, size=(w, h), layers=layers))
-    out, _ = correct_frames([s.rolling for s in sim], timing)
+    from .clips import pole_pan
+
+    sim, _ = pole_pan(data.astronaut(), 0.15, 1.0)
+    out, _ = correct_frames([s.rolling for s in sim], SensorTiming(1.0))
     dark = np.array([40.0, 40.0, 40.0])
     truth = np.abs(sim[2].truth.astype(np.int16) - dark).max(axis=-1) <= 12
     cols = np.flatnonzero(truth.mean(axis=0) >= 0.98)

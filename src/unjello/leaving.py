@@ -181,15 +181,14 @@ def _standing_out(obj: EdgeObject, own: np.ndarray, seen: np.ndarray,
     """
     sx, sy = scale
 
-    def unlike(rows: np.ndarray, cols: np.ndarray, beside: np.ndarray, look: np.ndarray
-               ) -> np.ndarray:
-        there = sample_points(own, (beside + 0.5) * sx - 0.5, (rows + 0.5) * sy - 0.5)
-        return (beside < 0) | (np.abs(there.astype(np.float32).reshape(look.shape)
-                                      - look).max(axis=1) > ALIKE)
+    def unlike(rows: np.ndarray, beside: np.ndarray, look: np.ndarray) -> np.ndarray:
+        """Which pixels (``look``) differ from the background beside them in their row."""
+        return (beside < 0) | (_unlike(own, look, (beside + 0.5) * sx - 0.5,
+                                       (rows + 0.5) * sy - 0.5) > ALIKE)
 
     assert obj.beside is not None
     whole = seen
-    part = unlike(obj.rows, obj.cols, obj.beside, seen)
+    part = unlike(obj.rows, obj.beside, seen)
     if part.sum() >= RUN or obj.wider is None or not obj.wider[0].size:
         return dataclasses.replace(obj, wider=None), whole
     rows, cols, beside = obj.rows[part], obj.cols[part], obj.beside[part]
@@ -197,7 +196,7 @@ def _standing_out(obj: EdgeObject, own: np.ndarray, seen: np.ndarray,
     wr, wc, wb = obj.wider
     look = sample_points(own, (wc + 0.5) * sx - 0.5, (wr + 0.5) * sy - 0.5
                          ).astype(np.float32).reshape(wr.size, -1)
-    more = unlike(wr, wc, wb, look)
+    more = unlike(wr, wb, look)
     rows, cols, beside = (np.concatenate([a, b[more]]) for a, b in
                           ((rows, wr), (cols, wc), (beside, wb)))
     seen = np.concatenate([seen, look[more]])

@@ -7,6 +7,8 @@ import pytest
 from unjello.motion.flow import invert_flow, median_along, optical_flow
 from unjello.motion.patches import refine_motion_edges
 
+from ..clips import pole_pan
+
 
 def test_invert_flow_composes_to_identity():
     # A smooth, non-uniform flow: following it and then its inverse returns home.
@@ -226,16 +228,7 @@ def _flagpole_pan():
     as far as the sky (benchmarks/edges.py --near 1.0001), 320x180: 10 frames, the poles."""
     from skimage import data
 
-    from unjello.simulate import Motion, pole_layers, simulate
-    from unjello.timing import SensorTiming
-
-    motion = Motion("pan", speed=128.0)
-    d = motion(np.linspace(-1.0, 11.0, 64))[:, 0]
-    apart = 2 * 1.0001 * 0.4 * 640  # as benchmarks/edges.py spaces them
-    layers = pole_layers(motion, (320, 180), (float(d.min()), float(d.max())), 1.0001,
-                         gap=(apart, apart + 140.0))
-    return list(simulate(data.rocket(), motion, SensorTiming(0.7), 10, size=(320, 180),
-                         layers=layers)), layers
+    return pole_pan(data.rocket(), 0.4, 0.7, near=1.0001)
 
 
 def test_a_fast_pan_the_correlation_misses_is_followed_from_the_expected_shift():

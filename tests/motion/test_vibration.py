@@ -87,17 +87,12 @@ def test_a_pan_over_flat_sky_behind_poles_is_not_vibration():
 
     from unjello.metrics import displacement_error
     from unjello.pipeline import correct_frames
-    from unjello.simulate import Motion, pole_layers, simulate
     from unjello.timing import SensorTiming
 
-    w, h = 320, 180
-    timing = SensorTiming(0.4)
-    motion = Motion("pan", speed=0.1 * w)
-    d = motion(np.linspace(-1.0, 11.0, 64))[:, 0]
-    layers = pole_layers(motion, (w, h), (float(d.min()), float(d.max())), 1.3,
-                         gap=(166.4, 306.4))
-    sim = list(simulate(data.rocket(), motion, timing, 10, size=(w, h), layers=layers))
-    _, traj = correct_frames([s.rolling for s in sim], timing)
+    from ..clips import pole_pan
+
+    sim, _ = pole_pan(data.rocket(), 0.1, 0.4)
+    _, traj = correct_frames([s.rolling for s in sim], SensorTiming(0.4))
     assert traj.vibration is None
     err = np.mean([displacement_error(f, s.motion) for f, s in zip(traj.frames, sim,
                                                                      strict=True)])
