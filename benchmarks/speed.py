@@ -401,13 +401,14 @@ def main() -> None:
               f"{fast[len(fast) // 2]:.2f} (median; rounds {', '.join(f'{x:.2f}' for x in fast)})",
               flush=True)
         npf = args.paper_frames
-        short = d / "clip_paper.mp4"
-        cut(clip, short, npf)
-        tp, _ = timed([*unjello, "correct", str(short), "-o", str(d / "tp.mp4"), "-q",
-                       "--method", "paper"])
-        print(f"unjello correct --method paper, first {npf} frames:     {tp:.1f} s "
-              f"({tp / npf:.2f} s/frame; {tp / npf / (t0 / args.frames):.1f}x the transcode's "
-              "time per frame)", flush=True)
+        if npf > 0:  # (--paper-frames 0: not timed)
+            short = d / "clip_paper.mp4"
+            cut(clip, short, npf)
+            tp, _ = timed([*unjello, "correct", str(short), "-o", str(d / "tp.mp4"), "-q",
+                           "--method", "paper"])
+            print(f"unjello correct --method paper, first {npf} frames:     {tp:.1f} s "
+                  f"({tp / npf:.2f} s/frame; {tp / npf / (t0 / args.frames):.1f}x the "
+                  "transcode's time per frame)", flush=True)
         cut(clip, d / "clip60.mp4", 60)
         short = d / "clip60.mp4"
         # Correction stage alone, on the decoded YUV 4:2:0 planes `correct` works on.
