@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from unjello.motion.flow import invert_flow, median_along, optical_flow
+from unjello.motion.flow import ROW_AGREE, invert_flow, median_along, optical_flow, row_flows
 from unjello.motion.patches import refine_motion_edges
 
 from ..clips import pole_pan
@@ -262,3 +262,20 @@ def test_median_along_is_numpys_median(n):
         np.testing.assert_array_equal(got, want)
     flat = values.ravel().astype(np.float64)
     assert median_along(flat) == np.median(flat)
+
+
+def test_a_row_weighs_the_pixels_that_agree_with_its_flow():
+    """Content entering the frame, or a flat region, passes the consistency check with a
+    flow of its own: with ``agree`` its row weighs the pixels that move as the row does."""
+    rng = np.random.default_rng(0)
+    flow = np.zeros((40, 200, 2), np.float32)
+    flow[..., 0] = -30.0
+    flow[:10, :120, 0] = rng.uniform(-8.0, 8.0, (10, 120))  # scattered, all "reliable"
+    ok = np.ones((40, 200), bool)
+    ok[30:, ::2] = False  # half unreliable: half the weight either way
+    rows, med, plain = row_flows(flow, ok)
+    _, med_agree, weight = row_flows(flow, ok, ROW_AGREE)
+    np.testing.assert_array_equal(med, med_agree)
+    assert np.all(plain[:30] == 1.0) and np.allclose(plain[30:], 0.5)
+    assert np.all(weight[:10] < 0.6) and np.all(weight[10:30] == 1.0)
+    assert np.allclose(weight[30:], 0.5)

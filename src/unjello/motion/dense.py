@@ -63,6 +63,7 @@ from .field import (
 )
 from .flow import (
     LARGE_MOTION,
+    ROW_AGREE,
     FlowSettings,
     flow_pair,
     half_row_flows,
@@ -292,7 +293,7 @@ class DenseMethod(SafeField):
         assert cur.bwd is not None and cur.bwd_ok is not None
         h = cur.image.shape[0]
         rho = self.timing.readout
-        y, med, wgt = row_flows(cur.bwd, cur.bwd_ok)
+        y, med, wgt = row_flows(cur.bwd, cur.bwd_ok, ROW_AGREE)
         t_a = cur.start + rho * y / h
         t_b = prev.start + rho * (y + med[:, 1]) / h
         return t_a, t_b, y / max(h - 1, 1), -med, wgt

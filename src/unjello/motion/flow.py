@@ -20,9 +20,9 @@ from ..kernels_field import grid_plus
 from ..timing import pixel_grid
 from .patches import patch_cost, refine_motion_edges, unmatched_entering
 
-__all__ = ["PRESETS", "LARGE_MOTION", "FlowSettings", "global_shift", "optical_flow", "landing",
-           "consistent", "row_flows", "half_row_flows", "invert_flow", "flow_pair", "explains",
-           "misses", "median_along"]
+__all__ = ["PRESETS", "LARGE_MOTION", "ROW_AGREE", "FlowSettings", "global_shift",
+           "optical_flow", "landing", "consistent", "row_flows", "half_row_flows", "invert_flow",
+           "flow_pair", "explains", "misses", "median_along"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -33,6 +33,9 @@ PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
 # get flow as fine as large ones (``docs/tuning.md``).
 _FULL_RES_WIDTH = 480
 
+#: A row's flow weighs the share of its pixels within this many pixels of it
+#: (:func:`row_flows`' ``agree``; the dense method's row equations).
+ROW_AGREE = 1.5
 #: Motion of at least this share of the frame's width per frame counts as large: more
 #: than about two pixels of DIS's coarsest level (an eighth to a sixteenth of the copy).
 #: DIS, starting from zero flow there, may then lock onto an alias of repetitive texture,
@@ -282,7 +285,8 @@ def _shorth(values: np.ndarray) -> np.ndarray:
     return shorth_sorted(np.sort(values, axis=1))  # NaN last
 
 
-def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def row_flows(flow: np.ndarray, ok: np.ndarray, agree: float | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Dominant flow of every row with enough reliable pixels.
 
     Parameters
@@ -291,6 +295,11 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
         Flow from a frame to its previous one.
     ok : ndarray of bool, shape (h, w)
         Reliable pixels.
+    agree : float, optional
+        Weigh each row by the share of its pixels whose reliable flow is within this
+        many pixels of the row's, on both axes (:data:`ROW_AGREE`), instead of the share
+        that is reliable: a flat region or content entering the frame passes the
+        consistency check with any flow, which then outvotes the scene's in few rows.
 
     Returns
     -------
@@ -299,7 +308,7 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     flow : ndarray of shape (m, 2)
         The row's flow (:func:`_shorth` of its reliable pixels).
     weight : ndarray of shape (m,)
-        Fraction of the row's pixels that were reliable.
+        Fraction of the row's pixels that were reliable (that agree, with ``agree``).
     """
     h, w = ok.shape
     count = ok.sum(axis=1)
@@ -309,7 +318,11 @@ def row_flows(flow: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     # The shorth sorts every row: a hundred and more samples per row are plenty.
     stride = max(1, w // 160)
     vals = np.where(ok[use, ::stride, None], flow[use, ::stride], np.nan)
-    return np.flatnonzero(use).astype(np.float64), _shorth(vals), count[use] / w
+    med = _shorth(vals)
+    if agree is None:
+        return np.flatnonzero(use).astype(np.float64), med, count[use] / w
+    near = (np.abs(vals - med[:, None, :]) <= agree).all(axis=2)  # NaN: False
+    return np.flatnonzero(use).astype(np.float64), med, near.sum(axis=1) / vals.shape[1]
 
 
 def half_row_flows(flow: np.ndarray, ok: np.ndarray
