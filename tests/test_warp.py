@@ -189,3 +189,28 @@ def test_undistorting_reads_the_same_in_every_scan_direction(scene):
         assert np.abs(out.astype(int) - expected).max() <= 1, direction
 
 
+
+
+def test_a_layer_s_soft_edge_takes_one_source_where_the_two_are_far_apart():
+    """A near pole's layer carries its pixels 40 px; its weight fades over its edge. A
+    position between the background's source and the pole's is neither: at such a
+    pixel the map takes the source of more weight. Sources a pixel apart still blend."""
+    from unjello.timing import pixel_grid
+    from unjello.warp import FRONT_BLEND, front_maps
+
+    h, w = 4, 80
+    gx, gy = pixel_grid(h, w)
+    weight = np.clip((np.arange(w, dtype=np.float32) - 50.0) / 8.0, 0.0, 1.0)  # a soft edge
+    for shift in (40.0, 0.5 * FRONT_BLEND):
+        layer = np.zeros((h, w, 3), np.float32)
+        layer[..., 0] = shift
+        layer[..., 2] = weight
+        mx, _ = front_maps((gx, gy), layer)
+        d = mx[0] - gx[0]  # 0: the maps' source, ``shift``: the layer's
+        # the weight sampled where the layer lands, nothing beyond the frame (0 past it)
+        lands = np.interp(np.arange(w) + shift, np.arange(w + 1), np.append(weight, 0.0))
+        if shift > FRONT_BLEND:
+            assert set(np.round(d, 4).tolist()) <= {0.0, shift}
+            np.testing.assert_array_equal(d == shift, lands >= 0.5)
+        else:
+            np.testing.assert_allclose(d, lands * shift, atol=0.01)  # remap: 1/32 px steps

@@ -37,7 +37,7 @@ from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
 
 __all__ = ["Fill", "WarpMode", "FILLS", "WARPS", "PictureWarper", "resample_displacement",
-           "splat", "remap", "apply_maps", "fill_holes", "field_maps", "front_maps",
+           "splat", "remap", "apply_maps", "fill_holes", "field_maps", "front_maps", "FRONT_BLEND",
            "resize_maps", "remap_maps", "reframe_maps", "frame_maps", "compose_maps"]
 
 Fill = Literal["black", "nearest"]
@@ -293,6 +293,10 @@ def grid_field(field: np.ndarray, grid: tuple[int, int], frame: tuple[int, int] 
     return f
 
 
+#: Pixels apart within which a layer's source and the maps' blend (:func:`front_maps`).
+FRONT_BLEND = 1.0
+
+
 def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
                frame: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Show a layer in front of backward maps: a spinning object over its background.
@@ -300,10 +304,9 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
     ``front`` (h, w, 3) is the layer's backward displacement and its weight at each pixel
     of the frame (:attr:`~unjello.trajectory.FrameMotion.front`). Output pixel ``p``
     takes the layer's source ``q = p + front(p)[:2]`` with the weight the object has at
-    ``q``: where it lands. Elsewhere ``maps`` stay -- also where the object was and has
-    turned away from (taking the layer's source there too, the background beside it
-    turned, measured worse: the simulated propeller's blades 22.07 -> 21.99 dB, the
-    wheel 25.89 -> 25.63).
+    ``q``: where it lands (further than :data:`FRONT_BLEND` from the maps' source, all
+    or nothing: a position between the two is neither). Elsewhere ``maps`` stay -- also
+    where the object was and has turned away from (``docs/measurements.md``).
 
     Examples
     --------
@@ -324,6 +327,8 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
     lands = cv2.remap(np.ascontiguousarray(front[..., 2], np.float32), qx, qy,
                       cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     mx, my = maps
+    far = np.maximum(np.abs(qx - mx), np.abs(qy - my)) > FRONT_BLEND  # (a pole's specks)
+    lands = np.where(far, lands >= 0.5, lands).astype(np.float32)
     return mx + lands * (qx - mx), my + lands * (qy - my)
 
 
