@@ -293,7 +293,7 @@ def grid_field(field: np.ndarray, grid: tuple[int, int], frame: tuple[int, int] 
     return f
 
 
-#: Pixels apart within which a layer's source and the maps' blend (:func:`front_maps`).
+#: Pixels (of the maps' grid) apart within which a layer's source and the maps' blend.
 FRONT_BLEND = 1.0
 
 
