@@ -233,8 +233,10 @@ class SafeField:
         spun_px = (weight > 0.5).astype(np.uint8)
         k = np.ones((7, 7), np.uint8)
         edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
-        after = float((fold_blobs(spinning, followed) & ~edges).mean())
-        if after > max(folds, FOLD_WARNING):  # folds elsewhere: a wrong rotation
+        blobs_after = fold_blobs(spinning, followed) & ~edges
+        after = float(blobs_after.mean())
+        if after * _on_detail(blobs_after, fr.image) > max(folds, FOLD_WARNING):
+            # folds elsewhere, where they show: a wrong rotation
             return field, folds, 0.0, "", ()
         spun = float(spun_px.mean())
         turning = [s for s in spins if s.omega]
