@@ -189,8 +189,6 @@ def test_undistorting_reads_the_same_in_every_scan_direction(scene):
         assert np.abs(out.astype(int) - expected).max() <= 1, direction
 
 
-
-
 def test_a_layer_s_soft_edge_takes_one_source_where_the_two_are_far_apart():
     """A near pole's layer carries its pixels 40 px; its weight fades over its edge. A
     position between the background's source and the pole's is neither: at such a

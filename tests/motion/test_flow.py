@@ -273,7 +273,7 @@ def test_a_row_weighs_the_pixels_that_agree_with_its_flow():
     flow[:10, :120, 0] = rng.uniform(-8.0, 8.0, (10, 120))  # scattered, all "reliable"
     ok = np.ones((40, 200), bool)
     ok[30:, ::2] = False  # half unreliable: half the weight either way
-    rows, med, plain = row_flows(flow, ok)
+    _, med, plain = row_flows(flow, ok)
     _, med_agree, weight = row_flows(flow, ok, ROW_AGREE)
     np.testing.assert_array_equal(med, med_agree)
     assert np.all(plain[:30] == 1.0) and np.allclose(plain[30:], 0.5)
