@@ -318,11 +318,11 @@ def row_flows(flow: np.ndarray, ok: np.ndarray, agree: float | None = None
     # The shorth sorts every row: a hundred and more samples per row are plenty.
     stride = max(1, w // 160)
     vals = np.where(ok[use, ::stride, None], flow[use, ::stride], np.nan)
-    med = _shorth(vals)
+    rows, med = np.flatnonzero(use).astype(np.float64), _shorth(vals)
     if agree is None:
-        return np.flatnonzero(use).astype(np.float64), med, count[use] / w
+        return rows, med, count[use] / w
     near = (np.abs(vals - med[:, None, :]) <= agree).all(axis=2)  # NaN: False
-    return np.flatnonzero(use).astype(np.float64), med, near.sum(axis=1) / vals.shape[1]
+    return rows, med, near.sum(axis=1) / vals.shape[1]
 
 
 def half_row_flows(flow: np.ndarray, ok: np.ndarray
