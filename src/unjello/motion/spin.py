@@ -44,6 +44,7 @@ from .rigid import (
     costs,
     fit_drift,
     pattern_search,
+    predict,
     prepare,
     rotate,
 )
@@ -96,6 +97,14 @@ UNCHECKED = 0.25
 #: around the object does (the cosine of their angle at least this): a nearer object in
 #: a pan (parallax). One side alone lets a flat region match a drift backwards.
 ALONG = 0.7
+#: Seen from one side only, a pixel the motion around a drifting object puts where the
+#: object lies in the neighbour (background it covered there) stays with the object only
+#: where the drift explains it outright: a mean truncated difference under this (grey
+#: levels) on an edge (:func:`_not_behind`).
+HIDDEN_COST = 15.0
+#: ... or where it is flat and no edge lies within the two motions' difference across the
+#: frame (pixels, at most this): a flat band carried with the object looks the same.
+HIDDEN_REACH = 15
 
 
 def fit_spin(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
@@ -273,7 +282,11 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         edged = grad[region[near]] >= EDGE  # (the region's pixels in the order of ys, xs)
         still[ys, xs] = np.where(edged, np.minimum.reduce(sides), both[1])
     box = (window, window)
-    better = ((cv2.boxFilter(rot, -1, box) < cv2.boxFilter(still, -1, box)) & region)
+    rot_box = cv2.boxFilter(rot, -1, box)
+    better = (rot_box < cv2.boxFilter(still, -1, box)) & region
+    if len(others) == 1 and not spin.omega:
+        better = _not_behind(better, rot_box, image, pts, others[0][1], spin, track, t_ref,
+                             readout)
     # One piece: gaps and small holes inside the object (a flat patch matches either
     # way) take the rotation too, so that the object is not torn between the two motions;
     # large holes (the background seen between a wheel's spokes) do not.
@@ -289,6 +302,52 @@ def spin_support(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     better = solid.astype(bool) & region
     weight = cv2.GaussianBlur(better.astype(np.float32), (0, 0), 1.0)
     return np.where(region, weight, 0.0).astype(np.float32)
+
+
+def _not_behind(better: np.ndarray, cost: np.ndarray, image: np.ndarray, pts: np.ndarray,
+                offset: float, spin: Spin, track: Track, t_ref: float, readout: float
+                ) -> np.ndarray:
+    """Leave out of ``better`` the background that the lone neighbour shows the object over.
+
+    Seen from one side, background beside a drifting object that the object covers in
+    the neighbour (the band a near pole has just uncovered) matches the motion around it
+    nowhere -- it lands on the object -- and the drift wins it by default: carried with
+    the object, it draws whatever it holds over the background beside (a helmet's rim
+    cut where the pole passed). Where the object lies in the neighbour is ``better``
+    carried by the drift (a pixel wider); a pixel that the motion around it puts there
+    stays only where the drift explains it outright (``cost`` under :data:`HIDDEN_COST`,
+    on an edge: the object's own outline), or where it is flat and no edge but the
+    object's lies within the two motions' difference across the frame
+    (:data:`HIDDEN_REACH` at most): a flat band carried with the object looks the same,
+    and fills the background it uncovered.
+    """
+    h, w = better.shape
+    row_time = readout / h
+    q = np.rint(predict(pts, row_time * pts[:, 1], np.repeat(spin.centre[None], 2, 0),
+                        np.zeros(2), track, t_ref, offset, row_time,
+                        drift=np.stack([spin.drift, np.zeros(2)]))).astype(np.intp)
+    xs, ys = pts[:, 0].astype(np.intp), pts[:, 1].astype(np.intp)
+    inside = (q[..., 0] >= 0) & (q[..., 0] < w) & (q[..., 1] >= 0) & (q[..., 1] < h)
+    place = np.zeros((h, w), np.uint8)
+    mine = better[ys, xs] & inside[0]
+    place[q[0, mine, 1], q[0, mine, 0]] = 1
+    there = cv2.dilate(place, np.ones((3, 3), np.uint8)) > 0
+    hidden = inside[1].copy()
+    hidden[hidden] = there[q[1, hidden, 1], q[1, hidden, 0]]
+    if not hidden.any():
+        return better
+    behind = np.zeros((h, w), bool)
+    behind[ys[hidden], xs[hidden]] = True
+    reach = int(min(HIDDEN_REACH, np.ceil(np.hypot(*spin.drift)
+                                          * np.abs(row_time * ys - t_ref).max())))
+    square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
+    grad, box = _gradient(image, cv2.dilate((better | behind).astype(np.uint8), square) > 0)
+    edge = np.zeros((h, w), bool)
+    edge[box] = grad >= EDGE
+    own = cv2.dilate((better & ~behind).astype(np.uint8), np.ones((3, 3), np.uint8))
+    busy = cv2.dilate((edge & (own == 0)).astype(np.uint8), square) > 0
+    keep = ((cost < HIDDEN_COST) & edge) | (better & ~busy)
+    return np.where(behind, keep, better)
 
 
 def spin_regions(seeds: np.ndarray, image: np.ndarray,
