@@ -314,15 +314,16 @@ def test_uncovered_background_two_neighbours_agree_on_is_kept(monkeypatch):
     the background it uncovered are the pole, and the check against them refused the
     background both neighbours show. Kept where the two views agree (``AGREE``), in
     frames with an object moving on its own: astronaut 25 %/1.0 clip interior 23.58 ->
-    24.40 dB (benchmarks/edges.py)."""
+    24.40 dB when it came; since regions kept whole take their rows' camera motion, the
+    rocket 25 %/1.0 clip's frame 30.71 -> 31.67 dB (benchmarks/edges.py)."""
     from benchmarks.edges import run
 
     import unjello.uncovered as uncovered
 
-    now = run("astronaut", 0.25, 1.0, 10, (320, 180), near=1.3)
+    now = run("rocket", 0.25, 1.0, 10, (320, 180), near=1.3)
     monkeypatch.setattr(uncovered, "AGREE", -1.0)
-    before = run("astronaut", 0.25, 1.0, 10, (320, 180), near=1.3)
-    assert now["out_interior"] > before["out_interior"] + 0.5, (before, now)
+    before = run("rocket", 0.25, 1.0, 10, (320, 180), near=1.3)
+    assert now["out_frame"] > before["out_frame"] + 0.5, (before, now)
 
 
 def test_the_strip_beside_a_leaving_pole_is_read_at_the_background_s_motion(monkeypatch):

@@ -454,9 +454,11 @@ class DenseMethod(SafeField):
         frac, new = float(fallback.mean()), float(entering.mean())
         note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
                 "the frame, the rest unreliable flow)") if frac > 0.05 else ""
+        # A region kept whole falls back on its rows' whole camera motion: a steady pan
+        # splits it between the trajectory and the rows' velocity.
         field, folds, kept, spun, said, fronts = self._safe_field(
-            fr, rows_minus(cam_disp, field_resid), cam_disp, fallback, entering, float(t_ref),
-            path, u_rows.mean(axis=0))
+            fr, rows_minus(cam_disp, field_resid), cam_disp + u_rows * (t_rows - t_ref)[:, None],
+            fallback, entering, float(t_ref), path, u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.

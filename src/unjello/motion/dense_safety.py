@@ -105,14 +105,15 @@ class SafeField:
     _kept: np.ndarray | None
     _spins: list[tuple[np.ndarray, float, float]]
 
-    def _safe_field(self, fr: DenseFrame, field: np.ndarray, cam_disp: np.ndarray,
+    def _safe_field(self, fr: DenseFrame, field: np.ndarray, camera: np.ndarray,
                     fallback: np.ndarray, entering: np.ndarray, t_ref: float,
                     c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
                     ) -> tuple[np.ndarray, float, float, float, str, tuple[np.ndarray, ...]]:
         """Make the per-pixel field safe: no fold or tear it can avoid.
 
         Where the field folds in blobs, the region gets the motion around it
-        (:func:`~unjello.motion.safety.keep_whole`, if that folds less); such regions and
+        (:func:`~unjello.motion.safety.keep_whole`, if that folds less; ``camera``: each
+        scanline's whole camera motion, eq. 26 with the rows' velocity); such regions and
         the objects whose flow failed (:func:`~unjello.motion.safety.failed_blobs`) are
         tried as spinning objects (:meth:`_turn_back_spinning`). Returns the field, its
         folds, the share kept whole, the share spun, what to say and the spinning
@@ -138,7 +139,7 @@ class SafeField:
             # object keeps spinning), even where this frame's map barely folds. One the
             # flow follows keeps its own motion.
             whole, share, after, regions = keep_whole(
-                field, cam_disp, fallback,
+                field, camera, fallback,
                 changing=changing, islands_only=folds <= KEEP_WHOLE, carried=carried,
                 from_folds=folds > KEEP_ISLAND, followed=followed)
             if share > 0 and (after < folds or (carried is not None and after <= folds)):

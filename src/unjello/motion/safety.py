@@ -184,17 +184,18 @@ def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
     A blob of folds marks motion that cannot be right; the failed flow around it (pixels
     whose flow failed its check, ``unreliable``, within ``reach`` px) belongs to the same
     object, so it goes too. There the field becomes the motion of the region's
-    surroundings (a normalised Gaussian average, ``reach`` px, of the field outside it;
-    the camera's where nothing is near): a spinner on a still floor is shown as the
-    sensor saw it, a patch of a fast pan moves with the pan, neither torn. The weight
-    falls off smoothly (a Gaussian of ``feather`` px) so that the seam does not tear.
+    surroundings: its rows' camera motion, plus the field outside it beyond theirs (a
+    normalised Gaussian average, ``reach`` px; nothing where nothing is near): a spinner
+    on a still floor is shown as the sensor saw it, a patch of a fast pan moves with the
+    pan, neither torn. The weight falls off smoothly (a Gaussian of ``feather`` px) so
+    that the seam does not tear.
 
     Parameters
     ----------
     field : ndarray of shape (h, w, 2)
         Per-pixel displacement.
     camera : ndarray of shape (h, 2)
-        The camera's displacement per scanline.
+        The camera's displacement per scanline (eq. 26).
     unreliable : ndarray of bool, shape (h, w)
         Pixels whose flow failed its consistency check.
     changing : ndarray of bool, shape (h, w), optional
@@ -384,18 +385,20 @@ def _keep_once(field: np.ndarray, seeds: np.ndarray, camera: np.ndarray,
                          feather) if obj.any() else 0.0)
     region = patch.astype(bool) | obj.astype(bool)
     weight = np.maximum(weight, region.astype(np.float32))[..., None]
-    # What fills the region: the motion of its surroundings (a normalised Gaussian average
-    # of the field outside it), else the camera's.
+    # What fills the region: its rows' camera motion plus its surroundings' beyond the
+    # camera's (a normalised Gaussian average of the field outside it, less their rows'
+    # camera motion: in a fast pan each row moves by its own time, and an average over
+    # the rows around took the bottom of the frame by half its displacement). Deep inside
+    # a large region, where the surroundings weigh little, the camera's motion takes over
+    # -- gradually: switched at a threshold, the two differed by a few px along a line
+    # across the objects (the real spinners' creases).
     outside = (weight[..., 0] < 0.01).astype(np.float32)
     sigma = float(reach)
     den = cv2.GaussianBlur(outside, (0, 0), sigma)[..., None]
-    num = cv2.GaussianBlur(np.ascontiguousarray(field * outside[..., None], np.float32),
-                           (0, 0), sigma)
     cam = np.broadcast_to(camera[:, None, :], field.shape)
-    # Deep inside a large region, where the surroundings weigh little, the camera's
-    # motion takes over -- gradually: switched at a threshold, the two differed by a few
-    # px along a line across the objects (the real spinners' creases).
-    fill = (num + _CAMERA_WEIGHT * cam) / (den + _CAMERA_WEIGHT)
+    num = cv2.GaussianBlur(np.ascontiguousarray((field - cam) * outside[..., None], np.float32),
+                           (0, 0), sigma)
+    fill = cam + num / (den + _CAMERA_WEIGHT)
     out = field * (1.0 - weight) + fill * weight
     return out.astype(field.dtype), region
 
