@@ -338,3 +338,16 @@ def test_compiled_drift_costs_are_the_numpy_costs(poles):
                              drift=drifts)
                 assert np.abs(fast - slow).max() < 0.05
                 assert (fast == TRUNCATE).sum() == (slow == TRUNCATE).sum()
+
+
+def test_a_line_a_pixel_wide_is_fitted_nothing_without_raising():
+    """A region that all but vanishes in the shrunk copy the drifts are first scored on
+    (a column a pixel wide, between the copy's samples) is no object to fit: None, not
+    OpenCV's error on an empty map."""
+    h, w = 240, 320
+    rng = np.random.default_rng(0)
+    image = cv2.GaussianBlur(rng.uniform(0, 255, (h, w)).astype(np.float32), (0, 0), 1.5)
+    track = PathTrack(np.linspace(-2, 2, 41), np.zeros((41, 2), np.float32))
+    region = np.zeros((h, w), bool)
+    region[:, 40] = True
+    assert fit_drift(image, [(np.roll(image, 3, axis=1), -1.0)], region, track, 0.5, 1.0) is None

@@ -303,8 +303,8 @@ def prepare(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
 
     Only the points the surroundings' motion does not explain (:data:`MOVING`) score a
     motion: the object, not the background seen through it. None when the region is too
-    small (under 200 px, a radius under 8 px), nothing moves against the surroundings, or
-    there is no neighbour.
+    small (under 200 px, a radius under 8 px; under 30 px in the shrunk copy), nothing
+    moves against the surroundings, or there is no neighbour.
     """
     h, w = image.shape
     ys, xs = np.nonzero(region)
@@ -330,6 +330,8 @@ def prepare(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         o for o, _ in others])]
     sreg = cv2.resize(region.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
     sy, sx = np.nonzero(sreg)
+    if len(sx) < 30:
+        return None  # it all but vanished in the shrunk copy (a line a pixel wide)
     scale = np.array([size[0] / w, size[1] / h])
     strack: Track = (track.scaled(scale) if isinstance(track, PathTrack)
                      else lambda t: np.asarray(track(t)) * scale)
