@@ -352,7 +352,7 @@ STEPS = np.array([(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
 def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
               region: np.ndarray, track: Track, t_ref: float, readout: float, *,
               max_drift: float | None = None, coarse_radius: float = 16.0,
-              min_gain: float = 1.15) -> Spin | None:
+              min_gain: float = 1.15, along: np.ndarray | None = None) -> Spin | None:
     """Fit ``region`` a velocity of its own on top of its surroundings': a near object.
 
     A pole passing close in front of the camera moves faster than the scene behind it
@@ -364,6 +364,10 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
     :func:`~unjello.motion.spin.fit_spin` scores rotations -- at most :data:`GRID_SIDE` a
     side, further apart than its pixels on a copy blurred to match; the best two are
     refined at full size by a shrinking pattern search.
+
+    With ``along`` (a direction), only drifts along it are scored: seen from one side, a
+    flat object's motion across that of its surroundings is unsure (the aperture: a pole
+    matches itself anywhere along its length), and only a drift along it is taken.
 
     Returns
     -------
@@ -385,9 +389,18 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
             return cv2.GaussianBlur(im, (0, 0), step / 2)
 
         small, others_s = blur(small), [(blur(o), off) for o, off in others_s]
-    gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0] / step), np.ceil(reach[0] / step) + 1),
-                         np.arange(-np.ceil(reach[1] / step), np.ceil(reach[1] / step) + 1))
-    gx, gy = gx * step, gy * step
+    if along is None:
+        gx, gy = np.meshgrid(np.arange(-np.ceil(reach[0] / step), np.ceil(reach[0] / step) + 1),
+                             np.arange(-np.ceil(reach[1] / step), np.ceil(reach[1] / step) + 1))
+        gx, gy = gx * step, gy * step
+        steps = STEPS
+    else:  # the line through no drift along ``along``, at the grid's step
+        u = np.asarray(along, np.float64) / float(np.hypot(*along))
+        us = u * prep.scale / float(np.hypot(*(u * prep.scale)))  # in the shrunk copy
+        n = np.ceil(float(np.hypot(*reach)) / step)
+        k = np.arange(-n, n + 1) * step
+        gx, gy = k * us[0], k * us[1]  # no drift among them: k = 0
+        steps = np.stack([u, -u])
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     centre = np.repeat((prep.centroid * prep.scale)[None], len(grid), 0)
     spts = prep.spts[::max(1, len(prep.spts) // 120)]
@@ -420,7 +433,7 @@ def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
         while move >= 0.25:
             sizes.append(move)
             move /= 2
-        results.append(pattern_search(cost, v, float(cost(v[None])[0]), STEPS, sizes))
+        results.append(pattern_search(cost, v, float(cost(v[None])[0]), steps, sizes))
     v = min(results, key=lambda r: r[0])[1]
     final = cost(np.stack([v, np.zeros(2)]), 0.0)
     return Spin(centre=prep.centroid, omega=0.0, cost=float(final[0]),

@@ -503,6 +503,10 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
     labels = spin_regions(seeds, image, others, track, t_ref, readout)
     unchecked = _unchecked(seeds.shape, others, track, readout) if len(others) >= 2 else None
     behind = (at(track, np.array([t_ref + 0.5])) - at(track, np.array([t_ref - 0.5])))[0]
+    # Seen from one side, only a drift along the motion around it is taken (_along): it is
+    # searched there (across it a flat pole's motion is unsure, and a drift across it
+    # that matched a little better turned a pole's fit down).
+    side = behind if len(others) < 2 and np.any(behind) else None
     out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
     areas = np.bincount(labels.ravel())[1:]
@@ -524,7 +528,7 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         # An object moving on its own (a near pole) is no spinner: a drift that explains
         # it is taken before any rotation is searched; seen from one side, only along the
         # motion around it (:data:`ALONG`).
-        spin = fit_drift(image, others, region, track, t_ref, readout)
+        spin = fit_drift(image, others, region, track, t_ref, readout, along=side)
         if spin is None or spin.gain < steady_gain:
             # A hull that joined other unexplained pieces (a suit's edges beside a pole)
             # is mostly what the surroundings' motion explains, and no drift (or a weak
@@ -533,12 +537,14 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
             tight = region & cv2.dilate(seeds.astype(np.uint8), np.ones((size, size),
                                                                          np.uint8)).astype(bool)
             if min_area / 2 <= tight.sum() < region.sum() / 2:
-                spin = fit_drift(image, others, tight, track, t_ref, readout) or spin
+                spin = fit_drift(image, others, tight, track, t_ref, readout,
+                                 along=side) or spin
         if spin is not None and steady_gain <= spin.gain < min_gain:
             # Again on what it explains: a near pole's hull holds what it covers.
             support = spin_support(image, others, region, spin, track, t_ref, readout) > 0.5
             if support.sum() >= min_area / 2:
-                spin = fit_drift(image, others, support, track, t_ref, readout) or spin
+                spin = fit_drift(image, others, support, track, t_ref, readout,
+                                 along=side) or spin
         drifting = spin is not None and spin.gain >= drift_gain and bool(
             np.hypot(*spin.drift) >= 1.0) and (len(others) >= 2 or _along(spin.drift, behind))
         if not drifting and elongation(region) > MAX_ELONGATION:
