@@ -444,7 +444,8 @@ class DenseMethod(SafeField):
                              for k in range(2)], axis=1) * scale
 
         # Eq. 26 per scanline: the camera's displacement plus the row velocity's.
-        camera = to_full_rows(cam_disp + u_rows * (t_rows - t_ref)[:, None])
+        cam_whole = cam_disp + u_rows * (t_rows - t_ref)[:, None]
+        camera = to_full_rows(cam_whole)
         if not self.config.per_pixel:
             return FrameMotion(fr.index, fr.start, camera, to_full_rows(velocity), ok=True,
                                note=self._note)
@@ -457,8 +458,8 @@ class DenseMethod(SafeField):
         # A region kept whole falls back on its rows' whole camera motion: a steady pan
         # splits it between the trajectory and the rows' velocity.
         field, folds, kept, spun, said, fronts = self._safe_field(
-            fr, rows_minus(cam_disp, field_resid), cam_disp + u_rows * (t_rows - t_ref)[:, None],
-            fallback, entering, float(t_ref), path, u_rows.mean(axis=0))
+            fr, rows_minus(cam_disp, field_resid), cam_whole, fallback, entering, float(t_ref),
+            path, u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
         note = "; ".join(n for n in (self._note, note, said) if n)
         # Back to the full frame: per-row values per full row, field in full-frame pixels.
