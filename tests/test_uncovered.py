@@ -137,6 +137,28 @@ def test_a_fill_both_neighbours_agree_on_is_kept_beside_the_object_itself(other,
     assert confirmed(found[:6], (10, 12), out, planes[:1]) is None
 
 
+@pytest.mark.parametrize(("seen", "far_shown", "kept"),
+                         [(100.0, False, 8), (250.0, False, 0), (100.0, True, 0)])
+def test_a_donor_on_a_fitted_object_is_compared_on_the_other_side(seen, far_shown, kept):
+    # The donors (4 px on) lie on a fitted pole (250, shown) whose motion was near the
+    # background's; the background (100) lies as far on the other side. The neighbour
+    # shows `seen` where the uncovered points lie: its background is kept, compared with
+    # the other side, unless that side shows an object too.
+    out = np.full((10, 12), 100.0, np.float32)
+    out[3:7, 4:12] = 250.0
+    shown = np.zeros((10, 12), bool)
+    shown[:, 6:12] = True
+    shown[:, :4] = far_shown
+    ys, xs = (a.ravel() for a in np.mgrid[3:7, 4:6])
+    n = ys.size
+    found = (ys, xs, np.zeros(n, int), np.zeros((n, 2), np.float32), ys, xs + 4)
+    neighbour = np.full((10, 12), seen, np.float32)
+    got = confirmed(found, (10, 12), out, [neighbour], shown)
+    assert (0 if got is None else got[0].size) == kept
+    # Without the objects, the pole beside it is what the output is compared with.
+    assert confirmed(found, (10, 12), out, [neighbour]) is None
+
+
 def test_uncovered_reads_in_this_frame_a_map_that_went_to_the_object_beside_it():
     """Output columns 23-24 show background whose source (26-27, left of the pole) this
     frame saw, but their maps went to the pole's sources (31-32: the fixed point of a

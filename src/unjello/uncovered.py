@@ -246,8 +246,8 @@ def uncovered_sources(found: tuple[np.ndarray, ...], grid: tuple[int, int],
     return parts
 
 
-def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list[np.ndarray]
-              ) -> tuple | None:
+def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list[np.ndarray],
+              shown: np.ndarray | None = None) -> tuple | None:
     """Keep the uncovered pixels whose neighbour's sample looks like their background.
 
     Checked on a plane at each pixel's centre: the neighbour's sample must be nearer in
@@ -256,8 +256,12 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
     (the near object stretched over it) -- or, where the other neighbour sees the pixel
     too, agree with what that one shows (within :data:`AGREE` grey levels: two views of
     one background; the pixels beside may be the object itself, where its own field
-    was the background's). A wrong displacement (a field that does not settle where no
-    object is) would otherwise bring in whatever the neighbour shows there. What is left
+    was the background's). Where the pixel whose displacement it took lies on a fitted
+    object (``shown``, bool on the grid: a near pole whose motion there is close to the
+    background's), the pixels as far on the other side stand for the background instead,
+    unless an object is shown there too. A wrong displacement (a field that does not
+    settle where no object is) would otherwise bring in whatever the neighbour shows
+    there. What is left
     must come in groups of at least :data:`GROUP` pixels of the grid: an object's edge is
     uncovered along its length, and single pixels drawn from elsewhere show as specks.
     """
@@ -281,6 +285,17 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
         seen[sel] = sample_points(planes[i], px + delta[sel, 0] * sx, py + delta[sel, 1] * sy
                             ).astype(np.float32).reshape(sel.sum(), -1)
     keep = np.abs(seen - back).sum(axis=1) < np.abs(now - back).sum(axis=1)
+    if shown is not None:
+        # A donor on a fitted object (a pole whose motion is near the background's) is
+        # no background: there the pixels as far on the other side are, if no object.
+        oy, ox = 2 * ys - qy, 2 * xs - qx
+        valid = (oy >= 0) & (oy < h) & (ox >= 0) & (ox < w)
+        oy, ox = oy.clip(0, h - 1), ox.clip(0, w - 1)
+        other = valid & shown[qy, qx] & ~shown[oy, ox]
+        if other.any():
+            far = sum(at(np.clip(oy - j * uy, 0, h - 1), np.clip(ox - j * ux, 0, w - 1))
+                      for j in range(3)) / 3.0
+            keep |= other & (np.abs(seen - far).sum(axis=1) < np.abs(now - far).sum(axis=1))
     if len(found) > 6:
         k2, delta2 = found[6:8]
         for i in np.unique(k2[k2 >= 0]):

@@ -495,7 +495,7 @@ class PictureWarper:
                     grid_field(motion.field, maps[0].shape, (h, w))
                     if plain and motion.field is not None else None,
                     own=[to_top_bottom(p, d) for p in planes],
-                    lone=bool(motion.front))
+                    lone=bool(motion.front), front=motion.front)
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
