@@ -261,9 +261,9 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
     background's), the pixels as far on the other side stand for the background instead,
     unless an object is shown there too. A wrong displacement (a field that does not
     settle where no object is) would otherwise bring in whatever the neighbour shows
-    there. What is left
-    must come in groups of at least :data:`GROUP` pixels of the grid: an object's edge is
-    uncovered along its length, and single pixels drawn from elsewhere show as specks.
+    there. What is left must come in groups of at least :data:`GROUP` pixels of the
+    grid: an object's edge is uncovered along its length, and single pixels drawn from
+    elsewhere show as specks.
     """
     ys, xs, k, delta, qy, qx = found[:6]
     (h, w), (ph, pw) = grid, out.shape[:2]
