@@ -94,11 +94,35 @@ def test_a_second_run_that_matches_worse_as_a_whole_is_not_used():
     right[..., 0] = 10.0
     wrong = right.copy()
     wrong[:, 40:, 0] = 37.0  # right on a strip only: better there, worse as a whole
-    picked = _pick_by_cost(a, b, wrong, right, whole=True)
+    picked = _pick_by_cost(a, b, wrong, right, whole="mean")
     assert np.array_equal(picked[:, 60:-60], right[:, 60:-60])
-    assert _pick_by_cost(a, b, right, wrong, whole=True) is right
+    assert _pick_by_cost(a, b, right, wrong, whole="mean") is right
     mixed = _pick_by_cost(a, b, right, wrong)  # per pixel: the wrong one nowhere better
     assert np.array_equal(mixed[:, 60:-60], right[:, 60:-60])
+
+
+def test_over_the_whole_frame_the_median_goes_by_the_scene_not_what_left_it():
+    from unjello.motion.flow import _pick_by_cost
+
+    # A faint scene (a 20th of the grass's contrast) that moved 10 px, and on the right
+    # a bright patch that left: what the frame shows there now is the old frame 37 px
+    # on (an alias). The true motion matches most of the frame; the alias that patch.
+    scene = _textured()
+    b = scene[:, :320] * 0.05 + 100.0
+    a = scene[:, 10:330] * 0.05 + 100.0
+    a[:, 220:280] = scene[:, 257:317]
+    b[:, 257:317] = scene[:, 257:317]
+    right = np.zeros(a.shape + (2,), np.float32)
+    right[..., 0] = 10.0
+    alias = right.copy()
+    alias[..., 0] = 37.0
+    # The patch's cost rules the mean: the alias wins it, over the frame as a whole.
+    assert _pick_by_cost(a, b, right, alias, whole="mean") is not right
+    assert _pick_by_cost(a, b, alias, right, whole="mean") is alias
+    # By the median, the scene's motion wins, and only the patch keeps the alias.
+    assert _pick_by_cost(a, b, right, alias, whole="median") is right
+    picked = _pick_by_cost(a, b, alias, right, whole="median")
+    assert np.array_equal(picked[20:-20, 20:200], right[20:-20, 20:200])
 
 
 def test_small_motion_is_plain_dis():

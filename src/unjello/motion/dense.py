@@ -84,8 +84,10 @@ from .vibration import (
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
 #: A pair whose flow's translation strays from the pace of the pair before by more than
-#: this share of it is measured again from that pace (:meth:`DenseMethod._steady`).
-STRAY = 0.25
+#: this share of it is measured again from that pace (:meth:`DenseMethod._steady`): at a
+#: quarter, a pair that followed a near pole (21 % faster, the only content two frames
+#: shared) was not.
+STRAY = 0.15
 
 
 def _row_flow(cur: np.ndarray, prev: np.ndarray, preset: str, max_width: int,
@@ -258,7 +260,8 @@ class DenseMethod(SafeField):
         measured again starting from the pace too (:func:`~unjello.motion.flow.flow_pair`'s
         ``expect``), which is used where it matches the pair better: over a flat sky with
         a pole, the phase correlation and DIS lost a pan of 40 % of the width a frame that
-        the pairs on either side followed (``docs/measurements.md``).
+        the pairs on either side followed; with the pole nearer, DIS followed the pole,
+        all that the two frames shared (``docs/measurements.md``).
         """
         dt = cur.start - prev.start
         if dt <= 0:

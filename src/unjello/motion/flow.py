@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -100,11 +101,14 @@ def global_shift(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
 
 
 def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
-                  whole: bool = False) -> np.ndarray:
+                  whole: Literal["mean", "median"] | None = None) -> np.ndarray:
     """Per pixel, ``other`` where its patch matches ``b`` better than ``flow``'s.
 
     With ``whole``, ``other`` is used only if it matches better over the frame too (a
-    lower mean patch cost); else ``flow`` is returned as it is.
+    lower mean, or median, patch cost); else ``flow`` is returned as it is. The median
+    is the scene's: content that enters or leaves the frame matches under no flow, and
+    its costs rule the mean; an alias that matches it somewhere (one lattice taken for
+    another) then wins over the frame's true motion.
     """
     h, w = a.shape
     gx, gy = pixel_grid(h, w)
@@ -112,8 +116,10 @@ def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndar
     bf = b.astype(np.float32)
     cost = patch_cost(af, bf, gx, gy, flow, _PICK_PATCH)
     cost_other = patch_cost(af, bf, gx, gy, other, _PICK_PATCH)
-    if whole and float(cost_other.mean()) >= float(cost.mean()):
-        return flow
+    if whole is not None:
+        reduce = np.mean if whole == "mean" else np.median
+        if float(reduce(cost_other)) >= float(reduce(cost)):
+            return flow
     return np.where((cost_other < cost)[..., None], other, flow)
 
 
@@ -164,8 +170,10 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     the run whose flow matches ``b`` better over a patch around it: a whip pan over grass
     or brick is then followed instead of an alias of its texture. With ``expect`` (a
     translation the neighbouring pair measured), DIS runs again from it too, used where
-    it matches ``b`` better over the frame as a whole, then pixel by pixel: over a flat
-    sky the phase correlation can miss a fast pan the pairs around follow.
+    it matches ``b`` better over the frame as a whole (the median patch cost: content
+    entering and leaving matches under no flow), then pixel by pixel: over a flat sky
+    the phase correlation can miss a fast pan the pairs around follow, and DIS follow a
+    near pole, all that two frames share, or one lattice taken for another.
 
     Parameters
     ----------
@@ -210,7 +218,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     dis = _engine(preset, finest_scale, refinement)
     flow = dis.calc(a8, b8, None)  # type: ignore[call-overload]  # None: no start
-    def started(shift: np.ndarray, whole: bool) -> np.ndarray:
+    def started(shift: np.ndarray, whole: Literal["mean", "median"] | None) -> np.ndarray:
         """DIS again from the translation ``shift``, kept where it matches better."""
         start = np.empty_like(flow)
         start[...] = shift
@@ -219,11 +227,11 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
 
     shift, response = global_shift(a8, b8)
     if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
-        flow = started(shift, whole=response < _SHIFT_RESPONSE)
+        flow = started(shift, whole="mean" if response < _SHIFT_RESPONSE else None)
         if entering:
             flow[unmatched_entering(a8, b8, flow, shift, _PICK_PATCH)] = shift
     if expect is not None:
-        flow = started(np.asarray(expect, np.float32) * scale, whole=True)
+        flow = started(np.asarray(expect, np.float32) * scale, whole="median")
     if polish > 0:
         _polisher(polish).calc(a8, b8, flow)
     if scale < 1.0:
