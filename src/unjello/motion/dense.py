@@ -49,7 +49,7 @@ from ..kernels import residual_side
 from ..kernels_field import lands_inside
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
-from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory
+from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory, solve_reweighted
 from .dense_config import DenseConfig
 from .dense_safety import FOLD_WARNING, DenseFrame, SafeField
 from .field import (
@@ -392,7 +392,10 @@ class DenseMethod(SafeField):
         if len(eqs) == 1:
             smoothness = max(smoothness, self.config.pair_smoothness)
         if not self.config.sinusoids or len(eqs) < 3:
-            return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
+            # Rows that followed a near object (the only content over a flat sky) are
+            # outvoted by the pairs around them (a lone pair has no others to do it).
+            solve = solve_reweighted if len(eqs) > 1 else solve_camera_trajectory
+            return solve(t_a, t_b, rows, delta, wgt, step, smoothness)
         # A vibration's frequencies hold for a while: picked again every 8 frames, from
         # what the smooth trajectory leaves of every 4th row equation (the choice costs
         # far more than the solve).
