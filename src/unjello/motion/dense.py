@@ -20,7 +20,9 @@ replaces the motion model:
    row contributes its own equation, motion that changes within a frame -- hand shake,
    23-40 Hz drone vibration -- is followed, not smoothed away; only components exactly
    periodic with the frame interval are invisible to frame differences, and the
-   regulariser keeps those small.
+   regulariser keeps those small. Rows far off the rest (a near pole the flow followed
+   across flat sky) are weighed down and the path solved again
+   (:func:`~unjello.motion.camera.solve_reweighted`).
 3. **Per-pixel residual.** What the camera trajectory does not explain (parallax,
    independently moving objects) is the residual flow of each pixel; where both
    neighbours exist its position over time is the quadratic through the three frames
