@@ -34,8 +34,8 @@ SINE_RIDGE = 1e-3
 # square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
 ROBUST_KNEE = 3.0
 
-# An equation whose misfit is this many times the median misfit weighs a tenth as much
-# in :func:`solve_reweighted` (a Cauchy weight), ...
+# An equation whose misfit is this many times the median misfit weighs half as much in
+# :func:`solve_reweighted` (a Cauchy weight; three times as far off, a tenth), ...
 OUTLIER_SPREAD = 3.0
 # ... the median taken as this many pixels at least (a clean pan leaves misfits of
 # hundredths: then nothing is an outlier).
@@ -321,7 +321,7 @@ def solve_reweighted(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray,
     each equation's weight is divided by ``1 + (r / (OUTLIER_SPREAD * m))^2``, where ``r``
     is its misfit and ``m`` the median misfit (at least :data:`OUTLIER_FLOOR` px), and the
     trajectory is solved again: rows three times as far off as the median count half,
-    ten times as far a tenth. Where no row is three times as far off, the first solve
+    nine times as far a tenth. Where no row is three times as far off, the first solve
     stands (a clean path: no second solve to pay).
 
     Examples
