@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from .leaving import edge_objects, objects_beyond, settled_objects
 from .map_bands import PlaneMaps
 from .neighbours import fill_from_neighbours, neighbour_sources, unseen_share
-from .timing import SensorTiming, pixel_grid
+from .timing import SensorTiming
 from .uncovered import confirmed, uncovered, uncovered_sources
 
-__all__ = ["NeighbourFill", "shown_objects"]
+__all__ = ["NeighbourFill"]
 
 
 class NeighbourFill:
@@ -38,16 +37,17 @@ class NeighbourFill:
     lone : bool
         Whether the frame shows an object moving on its own in front (a fitted drift or
         rotation): a lone neighbour is then read for all it uncovered (:func:`uncovered`).
-    front : tuple of ndarray
-        Those objects' layers (:attr:`FrameMotion.front <unjello.trajectory.FrameMotion>`):
-        where they are shown, :func:`confirmed` does not take the output for background.
+    shown : ndarray of bool, optional
+        Where those objects are shown, on the maps' grid
+        (:func:`~unjello.front_layers.shown_objects`): :func:`confirmed` does not take the
+        output there for background.
     """
 
     def __init__(self, maps: tuple[np.ndarray, np.ndarray],
                  neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
                  timing: SensorTiming, field: np.ndarray | None = None,
                  own: list[np.ndarray] | None = None,
-                 lone: bool = False, front: tuple[np.ndarray, ...] = ()) -> None:
+                 lone: bool = False, shown: np.ndarray | None = None) -> None:
         self.maps, self.offsets, self.timing = maps, offsets, timing
         self.planes = [planes for planes, _ in neighbours]
         self.flows = [flow for _, flow in neighbours]
@@ -64,7 +64,7 @@ class NeighbourFill:
             edge_objects(field, timing.readout, timing.reference_row(grid[0])), own[0],
             [p[0] for p in self.planes], [float(o) for o in offsets], grid)
             if field is not None and own is not None else [])
-        self._shown = shown_objects(front, grid) if self.behind is not None else None
+        self._shown = shown
         self._decided: np.ndarray | None = None  # the first plane's pixels taken by objects
         #: Of the first plane, the share whose source lies beyond the edge that no neighbour saw.
         self.unseen = 0.0
@@ -100,25 +100,3 @@ class NeighbourFill:
         """Plane ``i`` of each neighbour, then this frame's (:func:`uncovered`'s ``here``)."""
         return [p[i] for p in self.planes] + ([self.own[i]] if self.own is not None else [])
 
-
-def shown_objects(front: tuple[np.ndarray, ...], grid: tuple[int, int]) -> np.ndarray | None:
-    """Where the output shows a fitted object, on the maps' ``grid`` (bool); None without one.
-
-    Each layer (:func:`unjello.motion.spin.spin_source` and the weight, on the field's
-    grid) gives an output pixel its source in the frame; the object is shown where the
-    weight there is at least a half.
-    """
-    if not front:
-        return None
-    shown = None
-    for layer in front:
-        hf, wf = layer.shape[:2]
-        gx, gy = pixel_grid(hf, wf)
-        weight = cv2.remap(np.ascontiguousarray(layer[..., 2]), gx + layer[..., 0],
-                           gy + layer[..., 1], cv2.INTER_LINEAR,
-                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        shown = weight if shown is None else np.maximum(shown, weight)
-    assert shown is not None
-    if shown.shape != grid:
-        shown = cv2.resize(shown, (grid[1], grid[0]), interpolation=cv2.INTER_LINEAR)
-    return shown >= 0.5

@@ -27,6 +27,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from .front_layers import layer_sources, shown_objects
 from .kernels_field import fixed_point_maps
 from .lens import Lens
 from .map_bands import PlaneMaps, band_rows, warp_bands
@@ -318,14 +319,7 @@ def front_maps(maps: tuple[np.ndarray, np.ndarray], front: np.ndarray,
     >>> front_maps((gx, gy), layer)[0][0].tolist()
     [0.0, 2.0, 3.0, 3.0]
     """
-    h, w = front.shape[:2]
-    f = np.ascontiguousarray(front[..., :2], np.float32)
-    if frame is not None and frame != (h, w):
-        f = f * np.array([w / frame[1], h / frame[0]], dtype=np.float32)
-    gx, gy = pixel_grid(h, w)
-    qx, qy = gx + f[..., 0], gy + f[..., 1]
-    lands = cv2.remap(np.ascontiguousarray(front[..., 2], np.float32), qx, qy,
-                      cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    qx, qy, lands = layer_sources(front, frame)
     mx, my = maps
     far = np.maximum(np.abs(qx - mx), np.abs(qy - my)) > FRONT_BLEND  # (a pole's specks)
     lands = np.where(far, lands >= 0.5, lands).astype(np.float32)
@@ -495,7 +489,8 @@ class PictureWarper:
                     grid_field(motion.field, maps[0].shape, (h, w))
                     if plain and motion.field is not None else None,
                     own=[to_top_bottom(p, d) for p in planes],
-                    lone=bool(motion.front), front=motion.front)
+                    lone=bool(motion.front),
+                    shown=shown_objects(motion.front, maps[0].shape, (h, w)))
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)

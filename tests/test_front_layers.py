@@ -1,6 +1,6 @@
 import numpy as np
 
-from unjello.neighbour_fill import shown_objects
+from unjello.front_layers import shown_objects
 
 
 def _layer(dx: float) -> np.ndarray:
@@ -30,3 +30,9 @@ def test_objects_shown_are_put_on_the_maps_grid_and_together():
     assert shown is not None and shown.shape == (10, 15)
     assert shown[:, 5:7].all() and shown[:, 10:12].all()
     assert not shown[:, :4].any() and not shown[:, 13:].any()
+
+
+def test_a_layers_displacement_is_in_the_frames_pixels():
+    # The frame twice the layer's grid: 6 frame px are 3 of the grid.
+    assert np.array_equal(shown_objects((_layer(6.0),), (20, 30), (40, 60)),
+                          shown_objects((_layer(3.0),), (20, 30)))
