@@ -4,11 +4,11 @@ During a fast pan the reference instant shows, at the side the camera turns towa
 away from, content that the frame's own scanlines never saw: the output pixels whose
 true source lies outside the frame (the *strip*). A neighbouring frame saw most of it.
 This renders simulated clips (10 frames) and pairs (2 frames) at 10-40 % of the width a
-frame, readouts 0.4-1.0, with straight flat poles passing in front 1.3 times as near as
-the background (parallax; ``--near``: 1 for none, 1.0001 for poles as far as the
-background, a flagpole against the sky; two poles' motions a frame apart at least, as one
-fence post could not be told from the next), and prints, per case, the PSNR (dB) against the
-global-shutter truth of:
+frame (``--speeds``: others, e.g. ``0.6:0.4,0.6:1.0,0.5:0.7``), readouts 0.4-1.0, with
+straight flat poles passing in front 1.3 times as near as the background (parallax;
+``--near``: 1 for none, 1.0001 for poles as far as the background, a flagpole against the
+sky; two poles' motions a frame apart at least, as one fence post could not be told from
+the next), and prints, per case, the PSNR (dB) against the global-shutter truth of:
 
 - the strip (pixels whose true source lies outside the frame), split into the pixels
   the previous frame saw (rows read after the reference), those the next saw (rows read
@@ -38,6 +38,7 @@ Usage::
 
     python benchmarks/edges.py [--size 320x180] [--scenes astronaut,rocket] [--near 1.3]
                                [--direction x|diagonal|y] [--seeds 1]
+                               [--speeds 0.1:0.4,0.15:1.0,0.25:0.4,0.25:1.0,0.4:0.7]
 """
 
 from __future__ import annotations
@@ -221,8 +222,13 @@ def main() -> None:
     ap.add_argument("--direction", choices=sorted(DIRECTIONS), default="x",
                     help="pan across (x), across and down (diagonal: 0.6 as fast down) or "
                          "down (y)")
+    ap.add_argument("--speeds", default=",".join(f"{f}:{r}" for f, r in SPEEDS),
+                    help="the cases: SHARE:READOUT,... (the pan's share of the width a "
+                         "frame, the readout); e.g. 0.6:0.4,0.6:1.0,0.5:0.7 for the fastest "
+                         "pans issue 38 names")
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
+    speeds = [tuple(float(v) for v in case.split(":")) for case in args.speeds.split(",")]
     print(f"{size[0]}x{size[1]}, pan {args.direction}, flat poles in front ({args.near}x "
           "parallax); PSNR (dB) input -> default; the strip seen by the previous frame, by the "
           "next, by none")
@@ -231,7 +237,7 @@ def main() -> None:
           f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'rows <= 1 px':>14} "
           f"{'none%':>11} {'folded':>6} {'cpu s/f':>7} {'seeds':>6} {'worst':>6}")
     for scene in args.scenes.split(","):
-        for frac, readout in SPEEDS:
+        for frac, readout in speeds:
             for kind, frames in (("clip", 10), ("pair", 2)):
                 r = run(scene, frac, readout, frames, size,  # type: ignore[arg-type]
                         args.near, args.direction, args.seeds)

@@ -424,3 +424,22 @@ def test_rows_of_content_entering_do_not_outvote_the_pan():
     for f, s in zip(traj.frames, sim, strict=True):
         cam = f.camera if f.camera is not None else f.displacement
         assert np.linalg.norm(cam - s.motion.displacement, axis=1).mean() < 0.3
+
+
+@pytest.mark.parametrize(("readout", "frames"), [(0.4, 10), (1.0, 2)])
+def test_a_pan_of_more_than_half_the_width_a_frame_is_followed(readout, frames):
+    """Issue 38: a pan of 60 % of the width a frame (``benchmarks/edges.py --speeds 0.6:0.4``
+    without poles). The frame's translation read cyclically was the alias the other way
+    (+128 px where the view moved -192) and every pair lost the camera: 0.90x (the clip)
+    and 1.04x (the pair, worse than uncorrected). Read up to the frame's size: 0.038x and
+    0.001x."""
+    from skimage import data
+
+    timing = SensorTiming(readout)
+    sim = list(simulate(data.astronaut(), Motion("pan", speed=0.6 * 320), timing, frames,
+                        size=(320, 180)))
+    _, traj = correct_frames([s.rolling for s in sim], timing)
+    err = np.mean([displacement_error(f, s.motion) for f, s in zip(traj.frames, sim,
+                                                                     strict=True)])
+    unc = np.mean([displacement_error(None, s.motion) for s in sim])
+    assert err <= 0.1 * unc, (err, unc)

@@ -20,8 +20,9 @@ from ..kernels import consistency, shorth_sorted
 from ..kernels_field import grid_plus
 from ..timing import pixel_grid
 from .patches import patch_cost, refine_motion_edges, unmatched_entering
+from .phase import phase_correlate
 
-__all__ = ["PRESETS", "LARGE_MOTION", "ROW_AGREE", "FlowSettings", "global_shift",
+__all__ = ["PRESETS", "LARGE_MOTION", "ROW_AGREE", "FlowSettings", "global_shifts",
            "optical_flow", "landing", "consistent", "row_flows", "half_row_flows", "invert_flow",
            "flow_pair", "explains", "misses", "median_along"]
 
@@ -42,7 +43,7 @@ ROW_AGREE = 1.5
 #: DIS, starting from zero flow there, may then lock onto an alias of repetitive texture,
 #: or follow a few high-contrast edges (flat poles passing in front of a flat sky) and
 #: lose the scene's own motion; a second run starts from the frame's global translation
-#: (:func:`global_shift`). At 12 % a pan of 10 % behind poles was lost (``docs/tuning.md``).
+#: (:func:`global_shifts`). At 12 % a pan of 10 % behind poles was lost (``docs/tuning.md``).
 LARGE_MOTION = 0.05
 #: The width of the copies the global translation is measured on, and the phase
 #: correlation response below which the second run must also match the frame better as
@@ -67,37 +68,35 @@ PHOTO_MISS = 0.05
 _PHOTO_LEVEL = 12.0
 
 
-def global_shift(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
-                 ) -> tuple[np.ndarray, float]:
+def global_shifts(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
+                  ) -> list[tuple[np.ndarray, float]]:
     """Measure the frame's dominant translation ``t`` (``a(s) ~ b(s + t)``).
 
-    By phase correlation, on copies ``width`` px wide with a Hann window
-    (``cv2.phaseCorrelate`` windows its inputs in place: it gets copies).
+    By phase correlation (:func:`~unjello.motion.phase.phase_correlate`: up to the
+    frame's size) on copies ``width`` px wide.
 
     Returns
     -------
-    shift : ndarray of shape (2,)
-        ``(dx, dy)`` in pixels of ``a``.
-    response : float
-        The correlation peak's strength (0-1): low for no dominant translation.
+    list of (ndarray of shape (2,), float)
+        ``(dx, dy)`` in pixels of ``a``, and the correlation peak's strength (0-1: low
+        for no dominant translation): the cyclic correlation's, then, where the copies
+        overlap far better at another, that one (the last is the best).
 
     Examples
     --------
     >>> rng = np.random.default_rng(0)
     >>> b = cv2.GaussianBlur(rng.uniform(0, 255, (240, 320)).astype(np.float32), (0, 0), 3)
     >>> a = np.roll(b, (-5, -40), axis=(0, 1))  # a(s) = b(s + (40, 5))
-    >>> shift, response = global_shift(a, b)
-    >>> np.round(shift).tolist(), response > 0.3
-    ([40.0, 5.0], True)
+    >>> [(np.round(shift).tolist(), response > 0.3) for shift, response in global_shifts(a, b)]
+    [([40.0, 5.0], True)]
     """
     h, w = a.shape[:2]
     k = min(1.0, width / w)
     size = (max(8, round(w * k)), max(8, round(h * k)))
     sa = cv2.resize(np.asarray(a, np.float32), size, interpolation=cv2.INTER_AREA)
     sb = cv2.resize(np.asarray(b, np.float32), size, interpolation=cv2.INTER_AREA)
-    window = cv2.createHanningWindow(size, cv2.CV_32F)
-    (dx, dy), response = cv2.phaseCorrelate(sa.copy(), sb.copy(), window)
-    return np.array([dx * w / size[0], dy * h / size[1]], np.float32), float(response)
+    scale = np.array([w / size[0], h / size[1]], np.float32)
+    return [(shift * scale, response) for shift, response in phase_correlate(sa, sb)]
 
 
 def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
@@ -165,10 +164,13 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  expect: np.ndarray | None = None, entering: bool = False) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
-    Where the frame's global translation (:func:`global_shift`) is large
+    Where the frame's global translation (:func:`global_shifts`) is large
     (:data:`LARGE_MOTION`), DIS runs a second time starting from it, and each pixel keeps
     the run whose flow matches ``b`` better over a patch around it: a whip pan over grass
-    or brick is then followed instead of an alias of its texture. With ``expect`` (a
+    or brick is then followed instead of an alias of its texture. Where the copies
+    overlap far better at another shift than the cyclic correlation's (a pan of more
+    than half the width a frame, read as its alias the other way), DIS runs from that
+    one too, unless ``expect`` is given. With ``expect`` (a
     translation the neighbouring pair measured), DIS runs again from it too, used where
     it matches ``b`` better over the frame as a whole (the median patch cost: content
     entering and leaving matches under no flow), then pixel by pixel: over a flat sky
@@ -225,11 +227,15 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         again = _engine(preset, finest_scale, refinement, started=True)
         return _pick_by_cost(a8, b8, flow, again.calc(a8, b8, start), whole=whole)
 
-    shift, response = global_shift(a8, b8)
-    if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
-        flow = started(shift, whole="mean" if response < _SHIFT_RESPONSE else None)
-        if entering:
-            flow[unmatched_entering(a8, b8, flow, shift, _PICK_PATCH)] = shift
+    shifts = global_shifts(a8, b8)
+    if expect is not None:  # the pace around: over a flat sky, a near pole's shift can
+        shifts = shifts[:1]  # lay the copies on each other best, and DIS follow it
+    for shift, response in shifts:
+        if np.hypot(*shift) >= LARGE_MOTION * a8.shape[1]:
+            flow = started(shift, whole="mean" if response < _SHIFT_RESPONSE else None)
+    best = shifts[-1][0]
+    if entering and np.hypot(*best) >= LARGE_MOTION * a8.shape[1]:
+        flow[unmatched_entering(a8, b8, flow, best, _PICK_PATCH)] = best
     if expect is not None:
         flow = started(np.asarray(expect, np.float32) * scale, whole="median")
     if polish > 0:

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from ..errors import SettingsError
+from .phase import phase_correlate
 
 __all__ = ["BlockMatchConfig", "BlockVectors", "GlobalMotion", "block_match", "histogram_peak",
            "global_motion", "subpixel_offsets"]
@@ -358,10 +359,7 @@ def histogram_peak(
 
 def _phase_hint(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float]:
     """Whole-frame translation by phase correlation: a seed for the exact search."""
-    # Copies: cv2.phaseCorrelate (OpenCV 5.0) applies the window to its inputs in place.
-    p, c = _as_gray255(prev).copy(), _as_gray255(cur).copy()
-    win = cv2.createHanningWindow(p.shape[::-1], cv2.CV_32F)
-    (dx, dy), _ = cv2.phaseCorrelate(p, c, win)
+    (dx, dy), _ = phase_correlate(_as_gray255(prev), _as_gray255(cur))[-1]
     return float(dx), float(dy)
 
 
