@@ -19,12 +19,13 @@ from ..errors import SettingsError
 from ..kernels import consistency, shorth_sorted
 from ..kernels_field import grid_plus
 from ..timing import pixel_grid
+from .inverse import invert_flow
 from .patches import patch_cost, refine_motion_edges, unmatched_entering
 from .phase import phase_correlate
 
 __all__ = ["PRESETS", "LARGE_MOTION", "ROW_AGREE", "FlowSettings", "global_shifts",
-           "optical_flow", "landing", "consistent", "row_flows", "half_row_flows", "invert_flow",
-           "flow_pair", "explains", "misses", "median_along"]
+           "optical_flow", "landing", "consistent", "row_flows", "half_row_flows", "flow_pair",
+           "explains", "misses", "median_along"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -346,116 +347,6 @@ def half_row_flows(flow: np.ndarray, ok: np.ndarray
     left, right = (row_flows(flow[:, c], ok[:, c])[:2]
                    for c in (slice(0, half), slice(half, None)))
     return left, right
-
-
-def invert_flow(flow: np.ndarray, iterations: int = 3,
-                images: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """Invert a dense flow by the fixed point ``G(q) = -F(q + G(q))``.
-
-    If ``F`` carries the pixels of ``b`` to ``a`` (``b(s) ~ a(s + F(s))``), ``G`` carries
-    those of ``a`` back to ``b``. The flow is sampled bilinearly at the current estimate;
-    the iteration converges wherever the flow does not fold. Where content of ``a`` has no
-    counterpart in ``b`` (disocclusion) the result is the flow of the surroundings.
-
-    It starts from ``-F(q)``. Where the camera moves fast that is a guess at ``a``'s
-    sides: ``b`` shows there what entered the frame, matched to nothing, while ``a``'s
-    content sits a pan's width further in ``b``; the iteration may then settle on the
-    guess and leave the frame. Near the sides (as far in as the motion, and 8 px), where
-    it leaves the frame, it starts again from the row's dominant flow (the median of its
-    middle half), which is kept where it lands inside and returns (within
-    :data:`_INVERSE_MISS` px). Where both land
-    inside (two fixed points: the flow alone cannot tell which is right), the one that
-    carries ``a``'s grey levels onto like ones in ``b`` wins, given the ``images``.
-
-    Parameters
-    ----------
-    flow : ndarray of shape (h, w, 2), float32
-    iterations : int
-    images : tuple of ndarray, optional
-        ``(a, b)``, grey, to choose between two fixed points by.
-
-    Returns
-    -------
-    ndarray of shape (h, w, 2), float32
-
-    Examples
-    --------
-    >>> f = np.zeros((20, 30, 2), np.float32); f[..., 0] = 2.5
-    >>> bool(np.allclose(invert_flow(f)[..., 0], -2.5))
-    True
-    >>> pan = np.zeros((20, 60, 2), np.float32); pan[..., 0] = -20.0
-    >>> pan[:, :20, 0] = 7.0  # entering at b's left: a guess
-    >>> inv = invert_flow(pan)  # a's content at q is b's at q + 20
-    >>> bool(np.allclose(inv[:, :7, 0], 20.0))
-    True
-    """
-    h, w = flow.shape[:2]
-    gx, gy = pixel_grid(h, w)
-
-    back = -flow  # sampled: -F(q + G) (bilinear weights are symmetric under negation)
-
-    def iterate(inv: np.ndarray, top: int, left: int) -> np.ndarray:
-        maps = (np.empty(inv.shape[:2], np.float32), np.empty(inv.shape[:2], np.float32))
-        for _ in range(iterations):
-            mx, my, _ = grid_plus(inv, top, left, maps)
-            inv = cv2.remap(back, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        return inv
-
-    inv = iterate(back, 0, 0)
-    quarter = max(1, w // 4)
-    dominant = -median_along(flow[:, quarter:w - quarter:max(1, (w - 2 * quarter) // 80)], 1)
-    # What entered the other frame is as wide as the motion: the sides that far (and 8 px).
-    side = int(min(quarter, 8 + np.abs(dominant[:, 0]).max()))
-    for cols in (slice(0, side), slice(w - side, w)):
-        xs, ys = np.ascontiguousarray(gx[:, cols]), np.ascontiguousarray(gy[:, cols])
-        _, out = _inverse_miss(flow, inv[:, cols], xs, ys)
-        # In doubt: what leaves the frame; with the images, what strays from the row's
-        # dominant motion too (a second fixed point, or a near object's own).
-        doubt = out | ((np.abs(inv[:, cols] - dominant[:, None]).max(axis=-1) > 2.0)
-                       if images is not None else False)
-        rows = np.flatnonzero(doubt.any(axis=1))
-        if not rows.size:
-            continue
-        r = slice(rows[0], rows[-1] + 1)
-        start = np.broadcast_to(dominant[r, None, :], (r.stop - r.start, xs.shape[1], 2))
-        again = iterate(np.ascontiguousarray(start, np.float32), r.start, cols.start or 0)
-        miss2, out2 = _inverse_miss(flow, again, xs[r], ys[r])
-        fits = ~out2 & (miss2 <= _INVERSE_MISS)
-        better = out[r] & fits
-        if images is not None:
-            part = inv[r, cols]
-            unlike = [_unlike(images, g, xs[r], ys[r], r, cols) for g in (part, again)]
-            better |= doubt[r] & fits & ~out[r] & (unlike[1] + 2.0 < unlike[0])
-        part = inv[r, cols]
-        part[better] = again[better]
-    return inv
-
-
-def _unlike(images: tuple[np.ndarray, np.ndarray], inv: np.ndarray, xs: np.ndarray,
-            ys: np.ndarray, rows: slice, cols: slice) -> np.ndarray:
-    """Blurred ``|a(q) - b(q + G(q))|`` over a block of ``a`` (grey levels)."""
-    a, b = images
-    seen = cv2.remap(np.asarray(b, np.float32), np.ascontiguousarray(xs + inv[..., 0]),
-                     np.ascontiguousarray(ys + inv[..., 1]), cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_REPLICATE)
-    return cv2.GaussianBlur(cv2.absdiff(np.asarray(a[rows, cols], np.float32), seen),
-                            (0, 0), 2.0)
-
-
-#: A second start of an inverse flow near the frame's sides is kept only where it returns
-#: within this many pixels (``|G + F(q + G)|``, :func:`invert_flow`).
-_INVERSE_MISS = 1.0
-
-
-def _inverse_miss(flow: np.ndarray, inv: np.ndarray, xs: np.ndarray, ys: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """``|G + F(q + G)|`` at the points ``(xs, ys)`` of the inverse ``G``; where it leaves."""
-    h, w = flow.shape[:2]
-    lx = np.ascontiguousarray(xs + inv[..., 0])
-    ly = np.ascontiguousarray(ys + inv[..., 1])
-    back = cv2.remap(flow, lx, ly, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    out = (lx < -0.5) | (lx > w - 0.5) | (ly < -0.5) | (ly > h - 0.5)
-    return np.hypot(inv[..., 0] + back[..., 0], inv[..., 1] + back[..., 1]), out
 
 
 @dataclass(frozen=True)
