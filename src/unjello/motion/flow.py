@@ -74,7 +74,8 @@ def global_shifts(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
     """Measure the frame's dominant translation ``t`` (``a(s) ~ b(s + t)``).
 
     By phase correlation (:func:`~unjello.motion.phase.phase_correlate`: up to the
-    frame's size) on copies ``width`` px wide.
+    frame's size, where the cyclic reading is :data:`LARGE_MOTION` or more) on copies
+    ``width`` px wide.
 
     Returns
     -------
@@ -97,7 +98,8 @@ def global_shifts(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
     sa = cv2.resize(np.asarray(a, np.float32), size, interpolation=cv2.INTER_AREA)
     sb = cv2.resize(np.asarray(b, np.float32), size, interpolation=cv2.INTER_AREA)
     scale = np.array([w / size[0], h / size[1]], np.float32)
-    return [(shift * scale, response) for shift, response in phase_correlate(sa, sb)]
+    return [(shift * scale, response)
+            for shift, response in phase_correlate(sa, sb, LARGE_MOTION * size[0])]
 
 
 def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
