@@ -99,4 +99,3 @@ class NeighbourFill:
     def _sources(self, i: int) -> list[np.ndarray]:
         """Plane ``i`` of each neighbour, then this frame's (:func:`uncovered`'s ``here``)."""
         return [p[i] for p in self.planes] + ([self.own[i]] if self.own is not None else [])
-

@@ -274,9 +274,25 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
         px = np.clip(np.rint((gx + 0.5) * sx - 0.5), 0, pw - 1).astype(int)
         return out[py, px].astype(np.float32).reshape(gy.size, -1)
 
+    def line(gy: np.ndarray, gx: np.ndarray, dy: np.ndarray, dx: np.ndarray,
+             bounded: bool = False) -> np.ndarray:
+        """Return the output's mean at three grid pixels on from ``(gy, gx)`` by ``(dy, dx)``.
+
+        ``bounded``: each held to the grid first (else only the plane's pixel is).
+        """
+        steps = [(gy + j * dy, gx + j * dx) for j in range(3)]
+        if bounded:
+            steps = [(np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)) for y, x in steps]
+        (y0, x0), (y1, x1), (y2, x2) = steps
+        return (at(y0, x0) + at(y1, x1) + at(y2, x2)) / 3.0
+
+    def nearer(ref: np.ndarray) -> np.ndarray:
+        """Return where the neighbour's sample is nearer ``ref`` in colour than the output."""
+        return np.abs(seen - ref).sum(axis=1) < np.abs(now - ref).sum(axis=1)
+
     now = at(ys, xs)
     uy, ux = np.sign(qy - ys), np.sign(qx - xs)  # on from the donor, away from the pixel
-    back = sum(at(qy + j * uy, qx + j * ux) for j in range(3)) / 3.0
+    back = line(qy, qx, uy, ux)
     seen = np.empty_like(now)
     for i in np.unique(k):
         sel = k == i
@@ -284,7 +300,7 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
         py = np.clip(np.rint((ys[sel] + 0.5) * sy - 0.5), 0, ph - 1)
         seen[sel] = sample_points(planes[i], px + delta[sel, 0] * sx, py + delta[sel, 1] * sy
                             ).astype(np.float32).reshape(sel.sum(), -1)
-    keep = np.abs(seen - back).sum(axis=1) < np.abs(now - back).sum(axis=1)
+    keep = nearer(back)
     if shown is not None:
         # A donor on a fitted object (a pole whose motion is near the background's) is
         # no background: there the pixels as far on the other side are, if no object.
@@ -293,9 +309,7 @@ def confirmed(found: tuple, grid: tuple[int, int], out: np.ndarray, planes: list
         oy, ox = oy.clip(0, h - 1), ox.clip(0, w - 1)
         other = valid & shown[qy, qx] & ~shown[oy, ox]
         if other.any():
-            far = sum(at(np.clip(oy - j * uy, 0, h - 1), np.clip(ox - j * ux, 0, w - 1))
-                      for j in range(3)) / 3.0
-            keep |= other & (np.abs(seen - far).sum(axis=1) < np.abs(now - far).sum(axis=1))
+            keep |= other & nearer(line(oy, ox, -uy, -ux, bounded=True))
     if len(found) > 6:
         k2, delta2 = found[6:8]
         for i in np.unique(k2[k2 >= 0]):
