@@ -140,8 +140,7 @@ def invert_flow(flow: np.ndarray, iterations: int = 3,
         # matches nothing in a: the restart, where it returns, is the pixel's.
         lx = xs[r] + part[..., 0] - dominant[r, None, 0]
         ly = ys[r] + part[..., 1] - dominant[r, None, 1]
-        better |= doubt[r] & fits & ((lx < -0.5) | (lx > w - 0.5) | (ly < -0.5)
-                                     | (ly > h - 0.5))
+        better |= doubt[r] & fits & _leaves(lx, ly, h, w)
         if images is not None:
             unlike = [_unlike(images, g, xs[r], ys[r], r, cols) for g in (part, again)]
             better |= doubt[r] & fits & ~out[r] & (unlike[1] + 2.0 < unlike[0])
@@ -172,5 +171,9 @@ def _inverse_miss(flow: np.ndarray, inv: np.ndarray, xs: np.ndarray, ys: np.ndar
     lx = np.ascontiguousarray(xs + inv[..., 0])
     ly = np.ascontiguousarray(ys + inv[..., 1])
     back = cv2.remap(flow, lx, ly, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    out = (lx < -0.5) | (lx > w - 0.5) | (ly < -0.5) | (ly > h - 0.5)
-    return np.hypot(inv[..., 0] + back[..., 0], inv[..., 1] + back[..., 1]), out
+    return np.hypot(inv[..., 0] + back[..., 0], inv[..., 1] + back[..., 1]), _leaves(lx, ly, h, w)
+
+
+def _leaves(x: np.ndarray, y: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Return where the points ``(x, y)`` lie outside an ``h`` x ``w`` frame's pixels."""
+    return (x < -0.5) | (x > w - 0.5) | (y < -0.5) | (y > h - 0.5)
