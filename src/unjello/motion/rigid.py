@@ -17,9 +17,10 @@ import cv2
 import numpy as np
 
 from ..kernels_drift import drift_costs
+from ..kernels_field import grid_plus
 
-__all__ = ["Spin", "Track", "PathTrack", "carried", "costs", "drift_scorer", "fit_drift",
-           "prepare", "rotate", "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
+__all__ = ["Spin", "Track", "PathTrack", "carried", "carried_out", "costs", "drift_scorer",
+           "fit_drift", "prepare", "rotate", "TRUNCATE", "MOVING", "DRIFT_PENALTY"]
 
 #: Grey-level difference at which the match cost saturates (an occluded or
 #: mis-modelled pixel costs no more than this).
@@ -138,6 +139,19 @@ def carried(track: Track, drift: np.ndarray) -> Track:
         return track.carried(drift)
     v = np.asarray(drift, np.float64)
     return lambda t: np.asarray(track(t), np.float64) + np.asarray(t, np.float64)[..., None] * v
+
+
+def carried_out(shape: tuple[int, int], offset: float, track: Track, readout: float
+                ) -> np.ndarray:
+    """Pixels that the camera's motion (``track``) carries outside the frame ``offset`` away.
+
+    Each row is moved by the track's change from its own time to the same row's time in
+    that frame (``readout`` of a frame interval from the first row to the last). Bool.
+    """
+    h, w = shape
+    t_rows = readout * np.arange(h) / h
+    d = (at(track, t_rows + offset) - at(track, t_rows)).astype(np.float32)
+    return ~grid_plus(np.ascontiguousarray(np.broadcast_to(d[:, None], (h, w, 2))))[2]
 
 
 def at(track: Track, t: np.ndarray) -> np.ndarray:
