@@ -4,8 +4,14 @@ import numpy as np
 import pytest
 
 from unjello.map_bands import PlaneMaps
-from unjello.neighbours import fill_from_neighbours, neighbour_sources, unseen_share
-from unjello.warp import resize_maps
+from unjello.neighbours import (
+    beyond_rows,
+    edge_slopes,
+    fill_from_neighbours,
+    neighbour_sources,
+    unseen_share,
+)
+from unjello.warp import remap_maps, resize_maps
 
 
 def test_fill_from_neighbours_takes_what_the_frame_missed():
@@ -78,3 +84,55 @@ def test_neighbour_sources_take_each_row_from_the_neighbour_that_saw_it():
     assert rows[0] == set(range(20)) and rows[1] == set(range(20, h))
     for k, _, xs, nx, _ in parts:
         assert np.allclose(nx - (xs - 4), (9.0, 6.0)[k])
+
+
+def test_a_source_beyond_the_last_row_goes_on_with_the_motion():
+    """A tilt: each row is read later, so the displacement goes on growing past the last
+    row, and the maps (the last row's displacement held) put a source beyond it too
+    near; moved on by the bottom rows' slope, it is where the motion puts it (the
+    diagonal pans' and tilts' strip the previous frame saw, ``benchmarks/edges.py``)."""
+    h, w = 60, 80
+    rows = np.arange(h, dtype=np.float64)
+    v = np.array([0.6, 0.3])  # px a row: right and down
+    disp = (rows - h / 2)[:, None] * v  # eq. 26 for a steady camera, reference mid-frame
+    mx, my = remap_maps(disp, w)
+    slope = edge_slopes(disp)
+    assert np.allclose(slope, [v, v])
+    low = my > h - 1
+    assert low.any()
+    sx, sy = beyond_rows(mx[low], my[low], h, slope)
+    # The truth: p = s - D(s) with D going on linearly beyond the frame.
+    py, px = np.nonzero(low)
+    ty = (py - h / 2 * v[1]) / (1 - v[1])
+    tx = px + (ty - h / 2) * v[0]
+    assert np.allclose(sy, ty, atol=1e-3) and np.allclose(sx, tx, atol=1e-3)
+    assert not np.allclose(my[low], ty, atol=1.0)  # held, they were off
+    # Rows inside are not moved; a scan the motion outruns is left as it was.
+    x, y = beyond_rows(np.array([3.0]), np.array([5.0]), h, slope)
+    assert (x[0], y[0]) == (3.0, 5.0)
+    x, y = beyond_rows(np.array([3.0]), np.array([65.0]), h, (v, np.array([0.0, 0.95])))
+    assert (x[0], y[0]) == (3.0, 65.0)
+
+
+def test_the_strip_below_a_diagonal_pan_comes_from_where_the_previous_frame_saw_it():
+    """A pan of 80 x 48 px a frame (320 x 180, readout 1.0): below the second frame's last
+    row, what the previous frame saw (16.4 dB when read with the last row's
+    displacement held, along a flow that took the content entering for a global shutter's
+    -80 x -48 px; 34.6 now)."""
+    from skimage import data
+
+    from unjello.pipeline import correct_frames
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+    from unjello.warp import frame_maps
+
+    timing = SensorTiming(1.0)
+    sim = list(simulate(data.astronaut(), Motion.steps([(80.0, 48.0)], [100.0]), timing, 2,
+                        size=(320, 180)))
+    out, _ = correct_frames([s.rolling for s in sim], timing)
+    (mx, my), _ = frame_maps(sim[1].motion, 180, 320)
+    # beyond the last row; the flow to the previous frame is (-109, -65) px (eq. 10)
+    strip = (my > 179.5) & (mx >= 109.1)
+    err = (out[1].astype(np.float64) - sim[1].truth)[strip]
+    assert strip.sum() > 5000
+    assert 10 * np.log10(255.0**2 / np.mean(err**2)) > 32.0

@@ -70,10 +70,13 @@ class NeighbourFill:
         self.unseen = 0.0
 
     def __call__(self, i: int, out: np.ndarray,
-                 sized: tuple[np.ndarray, np.ndarray] | PlaneMaps) -> np.ndarray:
+                 sized: tuple[np.ndarray, np.ndarray] | PlaneMaps,
+                 slope: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Fill plane ``i`` (warped, top-bottom, its maps ``sized``) in place; return it.
 
-        ``sized``: the plane's maps whole, or as the coarse ones (a lens composed: whole).
+        ``sized``: the plane's maps whole, or as the coarse ones (a lens composed: whole);
+        ``slope``: how the camera's displacement changes a row at the plane's top and
+        bottom (:func:`~unjello.neighbours.edge_slopes`).
         """
         ph, pw = out.shape[:2]
         grid = self.maps[0].shape
@@ -81,7 +84,7 @@ class NeighbourFill:
             self.behind = confirmed(self.behind, grid, out, self._sources(0), self._shown)
         if (ph, pw) not in self._parts:
             parts = neighbour_sources(sized, self.flows, self.offsets,
-                                      self.timing.reference_row(ph))
+                                      self.timing.reference_row(ph), slope)
             if self.objects and (i == 0 or self._decided is not None):
                 assert self.own is not None
                 parts, self._decided = objects_beyond(

@@ -17,7 +17,7 @@ import numpy as np
 from .map_bands import PlaneMaps
 
 __all__ = ["neighbour_sources", "fill_from_neighbours", "unseen_share", "outside_share",
-           "sample_points", "INSET"]
+           "sample_points", "edge_slopes", "beyond_rows", "INSET"]
 
 #: Pixels of the flow's grid between the frame's border and where the flow carried past
 #: it is read (:func:`neighbour_sources`).
@@ -38,7 +38,8 @@ def sample_points(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray
 
 
 def neighbour_sources(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, flows: list[np.ndarray],
-                      offsets: list[int] | None = None, reference_row: float | None = None
+                      offsets: list[int] | None = None, reference_row: float | None = None,
+                      slope: tuple[np.ndarray, np.ndarray] | None = None
                       ) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Where to take the output pixels whose source lies outside the frame.
 
@@ -63,6 +64,10 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, flows: li
         next (the frame's own flow to the other may land inside on what entered the
         frame, matched to nothing): each pixel tries that neighbour first. Without them,
         the flows in their order.
+    slope : tuple of ndarray, optional
+        How the camera's displacement changes a row at the top and at the bottom
+        (:func:`edge_slopes`, plane pixels): a source beyond those rows is moved on by it
+        (:func:`beyond_rows`) before it is followed.
 
     Returns
     -------
@@ -89,6 +94,8 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, flows: li
         pts = cv2.findNonZero(outside).reshape(-1, 2)
         xs, ys = pts[:, 0], pts[:, 1]
         sx, sy = maps[0][ys, xs], maps[1][ys, xs]
+    if slope is not None:
+        sx, sy = beyond_rows(sx, sy, h, slope)
     order = list(range(len(flows)))
     if offsets is not None and reference_row is not None and len(flows) > 1:
         late = sy >= reference_row  # read after the reference: the previous frame first
@@ -99,6 +106,52 @@ def neighbour_sources(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, flows: li
                              sx[first], sy[first], h, w)
         return parts
     return _follow(flows, order, ys, xs, sx, sy, h, w)
+
+
+def edge_slopes(displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How a per-row ``displacement`` (h, 2) changes a row at the top and at the bottom.
+
+    Each over the eighth of the rows nearest that edge: ``(top, bottom)``, each ``(dx, dy)``
+    per row.
+
+    >>> d = np.stack([np.zeros(8), 0.5 * np.arange(8)], axis=1)
+    >>> [s.tolist() for s in edge_slopes(d)]
+    [[0.0, 0.5], [0.0, 0.5]]
+    """
+    h = len(displacement)
+    m = max(1, h // 8)
+    if h <= m:
+        return np.zeros(2), np.zeros(2)
+    d = np.asarray(displacement, np.float64)
+    return (d[m] - d[0]) / m, (d[h - 1] - d[h - 1 - m]) / m
+
+
+def beyond_rows(sx: np.ndarray, sy: np.ndarray, h: int,
+                slope: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Move sources beyond the first or last row on as the camera's motion goes on there.
+
+    The backward maps hold the displacement beyond the frame at its edge row's (eq. 26's
+    per-scanline displacement, sampled at the border). But each row is read later than
+    the one above it: beyond the last row the displacement goes on changing by the
+    bottom ``slope`` a row (before the first, by the top one), and in a tilt or a
+    diagonal pan the source of a pixel beyond the frame lies further out than the edge
+    row's displacement puts it. A source ``s0`` found with that displacement moves to the
+    fixed point of ``s = s0 + slope (s_y - edge)``, ``edge`` the first or last row
+    (none where the slope reaches 0.9 px a row: the scan barely outruns the motion).
+
+    >>> x, y = beyond_rows(np.array([5.0]), np.array([12.0]), 10, (np.zeros(2),
+    ...                    np.array([1.0, 0.5])))
+    >>> float(x[0]), float(y[0])
+    (11.0, 15.0)
+    """
+    sx, sy = np.array(sx, np.float64), np.array(sy, np.float64)
+    for edge, g, sel in ((0.0, slope[0], sy < 0.0), (h - 1.0, slope[1], sy > h - 1.0)):
+        if not sel.any() or g[1] >= 0.9:
+            continue
+        k = (sy[sel] - edge) / (1.0 - g[1])
+        sx[sel] += g[0] * k
+        sy[sel] = edge + k
+    return sx.astype(np.float32), sy.astype(np.float32)
 
 
 def _follow(flows: list[np.ndarray], which: list[int], ys: np.ndarray, xs: np.ndarray,

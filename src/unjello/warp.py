@@ -32,7 +32,7 @@ from .kernels_field import fixed_point_maps
 from .lens import Lens
 from .map_bands import PlaneMaps, band_rows, warp_bands
 from .neighbour_fill import NeighbourFill
-from .neighbours import outside_share
+from .neighbours import edge_slopes, outside_share
 from .scanlines import row_sources, shift_planes
 from .timing import SensorTiming, from_top_bottom, pixel_grid, to_top_bottom
 from .trajectory import FrameMotion, Reframe
@@ -516,7 +516,8 @@ class PictureWarper:
                 else:
                     res = apply_maps(tb, plane_maps, fill=fill)
                 if fills is not None:
-                    res = fills(i, res, plane_maps)
+                    res = fills(i, res, plane_maps, edge_slopes(
+                        _plane_displacement(motion, ph, pw, h, w, camera=True)))
                 if i == 0:
                     self.unseen = fills.unseen if fills is not None else outside_share(
                         plane_maps)
@@ -582,8 +583,13 @@ def _unseen_rows(displacement: np.ndarray, w: int) -> float:
     return float(cols.sum()) / (h * w)
 
 
-def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int) -> np.ndarray:
-    """Return the per-scanline displacement for a plane of ``ph x pw`` (4:2:0 chroma)."""
+def _plane_displacement(motion: FrameMotion, ph: int, pw: int, h: int, w: int,
+                        camera: bool = False) -> np.ndarray:
+    """Return the per-scanline displacement for a plane of ``ph x pw`` (4:2:0 chroma).
+
+    With ``camera``, the camera's own (:attr:`FrameMotion.camera`) where it has one.
+    """
+    d = motion.camera if camera and motion.camera is not None else motion.displacement
     if (ph, pw) == (h, w):
-        return motion.displacement
-    return resample_displacement(motion.displacement, ph, pw / w, ph / h)
+        return d
+    return resample_displacement(d, ph, pw / w, ph / h)

@@ -195,6 +195,26 @@ def test_a_fast_diagonal_pan_is_followed_in_the_rows_that_entered():
         assert max(ratio) < most, (n, ratio)
 
 
+def test_a_rows_flow_by_the_camera_model_lands_on_the_row_read_there():
+    """In a pan of 80 x 48 px a frame down (readout 1.0), a row's content lies in the
+    previous frame 48 / (1 - 48 / 180) = 65.5 rows up, read 65.5 rows' time earlier, so
+    80 * (1 + 65.5 / 180) = 109.1 px left: the flow the content entering takes (it took
+    the same row's -80 x -48)."""
+    from skimage import data
+
+    from unjello.pipeline import correct_frames
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    timing = SensorTiming(1.0)
+    sim = list(simulate(data.astronaut(), Motion.steps([(80.0, 48.0)], [100.0]), timing, 2,
+                        size=(320, 180)))
+    _, traj = correct_frames([s.rolling for s in sim], timing)
+    flow = dict(traj.frames[1].neighbours)[-1]
+    entered = np.median(flow[100:170, 5:60].reshape(-1, 2), axis=0)  # the previous saw none
+    assert np.allclose(entered, (-109.1, -65.45), atol=0.5), entered
+
+
 def test_a_region_kept_whole_falls_back_on_its_rows_camera_motion(monkeypatch):
     """Where a region is given the motion around it, deep inside it the camera's takes
     over: the scanline's whole camera motion (eq. 26 with the rows' velocity), which a
