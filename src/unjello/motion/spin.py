@@ -505,9 +505,6 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
               if len(others) >= 2 else None)
     unchecked = np.logical_and.reduce(beyond) if beyond is not None else None
     behind = (at(track, np.array([t_ref + 0.5])) - at(track, np.array([t_ref - 0.5])))[0]
-    # Seen from one side, only a drift along the motion around it is taken (_along): it is
-    # searched there (across it a flat pole's motion is unsure, and a drift across it
-    # that matched a little better turned a pole's fit down).
     out, spins, candidates, fronts = field, [], [], []
     used = np.zeros(seeds.shape, np.float32)
     areas = np.bincount(labels.ravel())[1:]
@@ -523,6 +520,9 @@ def keep_spinning(field: np.ndarray, image: np.ndarray,
         seen = others if beyond is None else [
             o for o, out in zip(others, beyond, strict=True)
             if (region & out).sum() <= ONE_SIDE * region.sum()] or others
+        # Seen from one side, only a drift along the motion around it is taken (_along):
+        # it is searched there (across it a flat pole's motion is unsure, and a drift
+        # across it that matched a little better turned a pole's fit down).
         side = behind if len(seen) < 2 and np.any(behind) else None
 
         def good(spin: Spin, radius: float = radius, sides: int = len(seen)) -> bool:
