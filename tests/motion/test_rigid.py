@@ -11,6 +11,7 @@ from unjello.motion.rigid import (
     PathTrack,
     Spin,
     carried,
+    carried_out,
     costs,
     fit_drift,
     pattern_search,
@@ -389,3 +390,19 @@ def test_an_objects_weight_falls_to_its_surroundings_within_two_pixels(poles):
     near, nearer = (cv2.dilate(inside, np.ones((n, n), np.uint8)) for n in (5, 3))
     two_out = near > nearer
     assert weight[two_out].max() < 0.02  # measured 0.003 (0.15 at 1.0 px)
+
+
+def test_carried_out_is_what_the_camera_carries_outside_a_neighbour():
+    def track(t):
+        t = np.asarray(t, np.float64)
+        return np.stack([40.0 * t, 20.0 * t], axis=-1)  # 40 x 20 px a frame
+
+    before, after = (carried_out((60, 100), k, track, 0.0) for k in (-1.0, 1.0))
+    # Outside the previous frame: x < 40 or y < 20; outside the next: x > 59 or y > 39.
+    want = np.zeros((60, 100), bool)
+    want[:, :40] = want[:20] = True
+    assert np.array_equal(before, want)
+    assert np.array_equal(after, want[::-1, ::-1])
+    both = np.zeros((60, 100), bool)
+    both[:20, 60:] = both[40:, :40] = True
+    assert np.array_equal(before & after, both)

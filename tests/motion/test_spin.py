@@ -135,24 +135,6 @@ def test_corners_no_neighbour_saw_are_fitted_no_motion_of_their_own():
     assert max(ratio[3:]) < 0.04, ratio
 
 
-def test_carried_out_is_what_the_camera_carries_outside_a_neighbour():
-    from unjello.motion.rigid import carried_out
-
-    def track(t):
-        t = np.asarray(t, np.float64)
-        return np.stack([40.0 * t, 20.0 * t], axis=-1)  # 40 x 20 px a frame
-
-    before, after = (carried_out((60, 100), k, track, 0.0) for k in (-1.0, 1.0))
-    # Outside the previous frame: x < 40 or y < 20; outside the next: x > 59 or y > 39.
-    want = np.zeros((60, 100), bool)
-    want[:, :40] = want[:20] = True
-    assert np.array_equal(before, want)
-    assert np.array_equal(after, want[::-1, ::-1])
-    both = np.zeros((60, 100), bool)
-    both[:20, 60:] = both[40:, :40] = True
-    assert np.array_equal(before & after, both)
-
-
 @pytest.mark.parametrize("stripes", [60.0, 0.0])
 def test_a_lone_neighbour_leaves_the_background_the_object_covered_there(stripes):
     """Seen from one side, the band a near pole has just uncovered lands on the pole in
