@@ -41,13 +41,11 @@ HELD = 0.6
 #: Largest grey-level difference between an object's visible pixel and what a neighbour
 #: shows where the object's own motion carries a pixel beyond the edge.
 ALIKE = 10.0
-#: Grid pixels along x either side of where an object's own motion carries a pixel, that
-#: must all be unlike the object for a neighbour's look of it there to be refused
-#: (:func:`objects_beyond`).
+#: Grid pixels along x either side of where an object's motion carries a pixel, all to be
+#: unlike the object for a neighbour's look of it there to be refused (:func:`objects_beyond`).
 MISSED = 2.0
-#: An object's core is its band's fastest quarter; where that is all background
-#: (:func:`settled_objects`), the pixels at least as fast as that quarter less this share
-#: of its lead on the background are looked at too.
+#: An object's core is its band's fastest quarter; where that is all background, the pixels
+#: as fast as it less this share of its lead on the background too (:func:`settled_objects`).
 CORE = 0.25
 #: Farthest (grid columns inward of the band) the background beside an object is looked
 #: for (:func:`settled_objects`: a core pixel like it is no part of the object).
@@ -174,10 +172,9 @@ def _standing_out(obj: EdgeObject, own: np.ndarray, seen: np.ndarray,
     object's. Where fewer than :data:`RUN` of the core's pixels are unlike the background
     beside them in their row, those and the pixels a little slower (:data:`CORE`,
     ``obj.wider``) that are unlike it are the core, if there are :data:`RUN` of them.
-    (Only then: a core that is partly background keeps its look, the median's, as
-    before -- the look of a dark pole's part alone had a rocket's dark details taken for
-    the pole in a neighbour.) Returns the object and the look (``seen``, this frame's
-    first plane ``own`` at the core).
+    (Only then: for a core partly background, the look of a dark pole's part alone had a
+    rocket's dark details taken for the pole in a neighbour.) Returns the object and the
+    look (``seen``, this frame's first plane ``own`` at the core).
     """
     sx, sy = scale
 
@@ -311,7 +308,9 @@ def settled_objects(objects: list[EdgeObject], own: np.ndarray, planes: list[np.
 def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int],
                    readout: float, reference_row: float, steps: list[float],
                    offsets: list[int], own: np.ndarray | None, planes: list[np.ndarray],
-                   decided: np.ndarray | None = None) -> tuple[list, np.ndarray | None]:
+                   decided: np.ndarray | None = None,
+                   further: list[np.ndarray | None] | None = None
+                   ) -> tuple[list, np.ndarray | None]:
     """Re-target the strip's pixels that an object leaving the frame covers.
 
     Output pixel ``p`` shows the object if its source under the object's own motion,
@@ -328,7 +327,9 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     the object's motion instead, which lands beside the object there. And a pixel on the
     object's side whose part reads the neighbour where it shows the object, but whose
     place under the object's motion it does not (:func:`_overtaken`: the object, faster,
-    overtook the background there) is left as warped (unseen). A pixel on the object's
+    overtook the background there) is read two frames away on that side along the
+    background's motion where that frame shows no object there (``further``: the object
+    is further ahead), else left as warped (unseen). A pixel on the object's
     side read where the object's motion, not the background's, carries it (the flow past
     the edge is the object's beside it) and showing no object there is read along the
     background's motion instead (:func:`_behind`).
@@ -353,6 +354,8 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
     decided : ndarray, optional
         For a plane other than the first: the first plane's decisions (returned when it
         was done), read at the nearest of its pixels.
+    further : list, optional
+        Per neighbour, the plane two frames away on its side or None (part ``n + 1 + i``).
 
     Returns
     -------
@@ -445,14 +448,27 @@ def objects_beyond(parts: list, objects: list[EdgeObject], grid: tuple[int, int]
         # motion says they are not it: it overtook the background there. Left as warped.
         for i in range(len(offsets)):
             idx = np.flatnonzero(near & (ks == i))
+            two = len(offsets) + 1 + i  # the frame two away on this side, as a part
             if first and idx.size:
                 idx = idx[_overtaken(planes[i], look, nx[idx], ny[idx],
                                      s_x[idx] + vx * steps[i],
                                      (s_y[idx] + vy * steps[i]).clip(0, gh - 1), (sx, sy), gw)]
                 mark[ys[idx], xs[idx]] = -1
             elif idx.size:
-                idx = idx[at[idx] == -1]
+                idx = idx[(at[idx] == -1) | (at[idx] == two + 1)]
             ks[idx], free[idx] = -1, False
+            (bx, by), away = obj.behind, further[i] if further else None
+            if away is not None and idx.size and abs(by) <= abs(bx) / 4:
+                qx, qy = _source(gx[idx], gy[idx], obj.behind, reference_row, k)  # (a pan's)
+                qx = (qx + 2 * steps[i] * bx + 0.5) * sx - 0.5
+                qy = (qy + 2 * steps[i] * by + 0.5) * sy - 0.5
+                ok = ((qx >= -0.5) & (qx <= pw - 0.5) & (qy >= -0.5) & (qy <= ph - 0.5)
+                      & (_unlike_near(away, look, qx, qy, MISSED * sx) > ALIKE)
+                      if first else at[idx] == two + 1)
+                idx = idx[ok]
+                ks[idx], nx[idx], ny[idx] = two, qx[ok], qy[ok]
+                if first:
+                    mark[ys[idx], xs[idx]] = two + 1
         if first and sum(t[0].size for t in taken) < least:
             continue  # a few pixels: no object's continuation, a speck
         for idx, i, qx, qy in taken:

@@ -41,14 +41,20 @@ class NeighbourFill:
         Where those objects are shown, on the maps' grid
         (:func:`~unjello.front_layers.shown_objects`): :func:`confirmed` does not take the
         output there for background.
+    further : list, optional
+        Per neighbour, the planes of the frame one further on its side (two frames away;
+        None where there is none): background a leaving object covers in the neighbour
+        is read there (:func:`objects_beyond`).
     """
 
     def __init__(self, maps: tuple[np.ndarray, np.ndarray],
                  neighbours: list[tuple[list, np.ndarray]], offsets: list[int],
                  timing: SensorTiming, field: np.ndarray | None = None,
                  own: list[np.ndarray] | None = None,
-                 lone: bool = False, shown: np.ndarray | None = None) -> None:
+                 lone: bool = False, shown: np.ndarray | None = None,
+                 further: list[list[np.ndarray] | None] | None = None) -> None:
         self.maps, self.offsets, self.timing = maps, offsets, timing
+        self.further = further if further is not None else [None] * len(offsets)
         self.planes = [planes for planes, _ in neighbours]
         self.flows = [flow for _, flow in neighbours]
         grid = maps[0].shape
@@ -91,7 +97,8 @@ class NeighbourFill:
                     parts, self.objects, grid, self.timing.readout,
                     self.timing.reference_row(grid[0]), [float(o) for o in self.offsets],
                     self.offsets, self.own[0] if i == 0 else None,
-                    [p[i] for p in self.planes], None if i == 0 else self._decided)
+                    [p[i] for p in self.planes], None if i == 0 else self._decided,
+                    [None if f is None else f[i] for f in self.further])
             self._parts[(ph, pw)] = parts
             if self.behind is not None:
                 self._parts[(ph, pw)] += uncovered_sources(self.behind, grid, (ph, pw))
@@ -100,5 +107,12 @@ class NeighbourFill:
         return fill_from_neighbours(out, self._parts[(ph, pw)], self._sources(i))
 
     def _sources(self, i: int) -> list[np.ndarray]:
-        """Plane ``i`` of each neighbour, then this frame's (:func:`uncovered`'s ``here``)."""
-        return [p[i] for p in self.planes] + ([self.own[i]] if self.own is not None else [])
+        """Plane ``i`` of each neighbour, this frame's, then each frame two away's.
+
+        This frame's is :func:`uncovered`'s ``here``; those two away are
+        :func:`objects_beyond`'s (this frame's stands in where there is none).
+        """
+        if self.own is None:
+            return [p[i] for p in self.planes]
+        return ([p[i] for p in self.planes] + [self.own[i]]
+                + [self.own[i] if f is None else f[i] for f in self.further])

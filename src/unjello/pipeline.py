@@ -151,6 +151,7 @@ class Corrector:
         self._only = only
         self._held: deque[list[np.ndarray]] = deque()
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
+        self._last2: list[np.ndarray] | None = None  # and the one before it
 
     def push(self, planes: Sequence[np.ndarray], start: float
              ) -> list[tuple[list[np.ndarray], FrameMotion]]:
@@ -224,14 +225,15 @@ class Corrector:
         out = []
         for fm in motions:
             planes = self._held.popleft()
-            around = {-1: self._last, 1: self._held[0] if self._held else None}
+            around = {-2: self._last2, -1: self._last, 1: self._held[0] if self._held else None,
+                      2: self._held[1] if len(self._held) > 1 else None}
             skip = self._only is not None and fm.index not in self._only
             if skip:
                 out.append((planes, fm))
             else:
                 warped = self.warp(planes, fm, around)
                 out.append((warped, dataclasses.replace(fm, unseen=self.warp.unseen)))
-            self._last = planes
+            self._last2, self._last = self._last, planes
         return out
 
 

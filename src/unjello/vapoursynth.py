@@ -103,12 +103,16 @@ def correct(clip: Any, *, readout: float | str | None = None,
     last = clip.num_frames - 1
     before = clip[0] + clip[:-1] if last else clip  # frame n - 1 at n
     after = clip[1:] + clip[-1] if last else clip  # frame n + 1 at n
+    before2 = clip[0] + before[:-1] if last else clip  # frame n - 2 at n
+    after2 = after[1:] + clip[-1] if last else clip  # frame n + 2 at n
 
     lock = threading.Lock()  # VapourSynth asks from several threads; the warper reuses buffers
 
     def render(n: int, f: list[Any]) -> Any:
         fm = motions[n]
-        around = {-1: picture(f[1]) if n > 0 else None, 1: picture(f[2]) if n < last else None}
+        around = {-1: picture(f[1]) if n > 0 else None, 1: picture(f[2]) if n < last else None,
+                  -2: picture(f[3]) if n > 1 else None,
+                  2: picture(f[4]) if n < last - 1 else None}
         with lock:
             out = corrector.warp(picture(f[0]), fm, around)
         planes = [out[0][..., k] for k in range(3)] if rgb else out
@@ -122,4 +126,4 @@ def correct(clip: Any, *, readout: float | str | None = None,
         dst.props["UnjelloConfidence"] = float(fm.confidence)
         return dst
 
-    return clip.std.ModifyFrame([clip, before, after], render)
+    return clip.std.ModifyFrame([clip, before, after, before2, after2], render)

@@ -465,7 +465,7 @@ class PictureWarper:
         motion : FrameMotion
             Its motion (per scanline, or per pixel with ``field``).
         around : dict, optional
-            Frame offset (-1, 1) -> that neighbour's planes, for filling.
+            Frame offset (-1, 1; -2, 2 two frames away) -> that frame's planes, for filling.
 
         Returns
         -------
@@ -490,7 +490,9 @@ class PictureWarper:
                     if plain and motion.field is not None else None,
                     own=[to_top_bottom(p, d) for p in planes],
                     lone=bool(motion.front),
-                    shown=shown_objects(motion.front, maps[0].shape, (h, w)))
+                    shown=shown_objects(motion.front, maps[0].shape, (h, w)),
+                    further=[None if (f := around.get(2 * k)) is None else
+                             [to_top_bottom(p, d) for p in f] for k, _, _ in have])
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
