@@ -21,7 +21,11 @@ for the input and the default correction; the displacement error of the correcti
 against the truth (relative to none); the median bend of the upright poles within 30 px
 of a side, in the input and the output (:func:`pole_bends`; px; a pole torn apart counts
 as its width plus 20 px), how many of them are straight within 1 px, and the share of
-their rows within 1 px; the share of pixels none saw, true / as the run reports it
+their rows within 1 px -- in the output, also split between the poles a neighbouring
+frame shows too (``2 fr``: their motion can be measured) and those only their own frame
+shows (``1 fr``: entering or leaving between two frames; no flow measures their motion,
+and they keep the motion around them: straightening them would take a prior that they
+stand upright); the share of pixels none saw, true / as the run reports it
 (``unseen``, ``correct --json``); the frames whose correction still folds or tears
 more than ``FOLD_WARNING`` of the picture (the run's warning); and the worst frame's PSNR.
 
@@ -95,7 +99,7 @@ def strip_masks(sim: list, timing: SensorTiming) -> list[tuple[np.ndarray, ...]]
 
 
 def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
-               side: int = SIDE) -> list[tuple[float, float]]:
+               side: int = SIDE) -> list[tuple[float, float, float]]:
     """How far each upright pole within ``side`` px of a side strays in ``image`` (px).
 
     A pole is found in the global-shutter ``truth`` as the columns whose every row shows
@@ -107,9 +111,9 @@ def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
 
     Returns
     -------
-    list of (float, float)
-        Per pole: the largest distance of a scored row's mean from the truth's, and the
-        share of its scored rows within 1 px.
+    list of (float, float, float)
+        Per pole: the largest distance of a scored row's mean from the truth's, the share
+        of its scored rows within 1 px, and its centre column in ``truth``.
     """
     h, w = truth.shape[:2]
     out = []
@@ -134,8 +138,31 @@ def pole_bends(image: np.ndarray, truth: np.ndarray, colours: list[np.ndarray],
         count = found.sum(axis=1)
         rows = np.abs(np.where(count > 0, (found * x).sum(axis=1) / np.maximum(count, 1)
                                - centre, reach))[clean]
-        out.append((float(rows.max()), float(np.mean(rows <= 1.0))))
+        out.append((float(rows.max()), float(np.mean(rows <= 1.0)), float(centre)))
     return out
+
+
+def shown_by_neighbour(sim: list, layers: list, timing: SensorTiming, i: int,
+                       colour: np.ndarray, centre: float) -> bool:
+    """Whether frame ``i - 1`` or ``i + 1`` shows the pole at ``centre`` in frame i's truth.
+
+    The pole is the layer of that colour the truth shows nearest ``centre``; a neighbour
+    shows it where its rolling-shutter frame's layer map has it in a tenth of the rows.
+    A pole no neighbour shows is one whose motion no flow can measure.
+    """
+    h = sim[i].rolling.shape[0]
+    t_ref = np.array([timing.reference_time(h, float(i))])
+    best, near = None, 3.0
+    for k, layer in enumerate(layers):
+        if np.abs(layer.image[0, 0] - colour).max() > 0:
+            continue
+        at = layer.position[0] + layer.motion(t_ref)[0, 0] + (layer.image.shape[1] - 1) / 2
+        if abs(at - centre) <= near:
+            best, near = k, abs(at - centre)
+    if best is None:
+        return False
+    return any((sim[j].layer == best + 1).any(axis=1).sum() >= h // 10
+               for j in (i - 1, i + 1) if 0 <= j < len(sim))
 
 
 #: Pan directions (``--direction``): the motion of a pan of ``speed`` px a frame.
@@ -193,12 +220,18 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
                                              for o, s in zip(images, sim, strict=True)]))
     colours = [layer.image[0, 0] for layer in layers]
     for tag, images in (("in", rolling), ("out", out)):
-        bends = [b for o, s in zip(images, sim, strict=True)
-                 for b in pole_bends(o, s.truth, colours)]
-        row[f"{tag}_bend"] = float(np.median([b for b, _ in bends])) if bends else float("nan")
-        row[f"{tag}_rows"] = float(np.mean([r for _, r in bends])) if bends else float("nan")
-        row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b, _ in bends)}/{len(bends)}"
+        bends = []
+        for i, (o, s) in enumerate(zip(images, sim, strict=True)):
+            for c in colours:
+                for b, r, centre in pole_bends(o, s.truth, [c]):
+                    bends.append((b, r, shown_by_neighbour(sim, layers, timing, i, c, centre)))
+        row[f"{tag}_bend"] = float(np.median([b for b, _, _ in bends])) if bends else float("nan")
+        row[f"{tag}_rows"] = float(np.mean([r for _, r, _ in bends])) if bends else float("nan")
+        row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b, _, _ in bends)}/{len(bends)}"
                                   if bends else "-")
+        for name, seen in (("two", True), ("one", False)):
+            rows = [r for _, r, shown in bends if shown == seen]
+            row[f"{tag}_rows_{name}"] = float(np.mean(rows)) if rows else float("nan")
     row["folded"] = f"{sum(f.folds > FOLD_WARNING for f in traj.frames)}/{len(traj.frames)}"
     row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
     row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
@@ -235,6 +268,7 @@ def main() -> None:
     print(f"{'scene':10} {'kind':5} {'speed':>5} {'rho':>4} {'strip%':>6} "
           f"{'strip: prev':>15} {'next':>15} {'none':>15} {'interior':>15} {'frame':>15} "
           f"{'err':>6} {'pole bend px':>14} {'straight':>11} {'rows <= 1 px':>14} "
+          f"{'2 fr / 1 fr':>11} "
           f"{'none%':>11} {'folded':>6} {'cpu s/f':>7} {'seeds':>6} {'worst':>6}")
     for scene in args.scenes.split(","):
         for frac, readout in speeds:
@@ -246,12 +280,15 @@ def main() -> None:
                     return f"{r['in_' + name]:6.2f} -> {r['out_' + name]:5.2f}".replace(
                         "nan", "-")
 
+                split = f"{r['out_rows_two']:4.2f} / {r['out_rows_one']:4.2f}".replace(
+                    "nan", "-")
                 print(f"{scene:10} {kind:5} {frac:5.2f} {readout:4.1f} "
                       f"{100 * r['strip_share']:6.1f} {pair('prev'):>15} {pair('next'):>15} "
                       f"{pair('unseen'):>15} {pair('interior'):>15} {pair('frame'):>15} "
                       f"{r['ratio']:6.3f} {pair('bend'):>14} "
                       f"{r['in_straight'] + ' -> ' + r['out_straight']:>11} "
                       f"{pair('rows'):>14} "
+                      f"{split:>11} "
                       f"{100 * r['unseen_true']:4.1f}/{100 * r['unseen_said']:4.1f}  "
                       f"{r['folded']:>6} "
                       f"{r['cpu_s']:7.2f} {r['seeds_frame']:6.2f} {r['worst']:6.2f}",
