@@ -220,18 +220,19 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
                                              for o, s in zip(images, sim, strict=True)]))
     colours = [layer.image[0, 0] for layer in layers]
     for tag, images in (("in", rolling), ("out", out)):
-        bends = []
+        bends = []  # (bend, rows within 1 px, a neighbour shows the pole: the output's split)
         for i, (o, s) in enumerate(zip(images, sim, strict=True)):
             for c in colours:
                 for b, r, centre in pole_bends(o, s.truth, [c]):
-                    bends.append((b, r, shown_by_neighbour(sim, layers, timing, i, c, centre)))
+                    bends.append((b, r, tag == "out" and shown_by_neighbour(
+                        sim, layers, timing, i, c, centre)))
         row[f"{tag}_bend"] = float(np.median([b for b, _, _ in bends])) if bends else float("nan")
         row[f"{tag}_rows"] = float(np.mean([r for _, r, _ in bends])) if bends else float("nan")
         row[f"{tag}_straight"] = (f"{sum(b <= 1.0 for b, _, _ in bends)}/{len(bends)}"
                                   if bends else "-")
-        for name, seen in (("two", True), ("one", False)):
-            rows = [r for _, r, shown in bends if shown == seen]
-            row[f"{tag}_rows_{name}"] = float(np.mean(rows)) if rows else float("nan")
+    for name, seen in (("two", True), ("one", False)):
+        rows = [r for _, r, shown in bends if shown == seen]  # the output's, from the loop
+        row[f"out_rows_{name}"] = float(np.mean(rows)) if rows else float("nan")
     row["folded"] = f"{sum(f.folds > FOLD_WARNING for f in traj.frames)}/{len(traj.frames)}"
     row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
     row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
