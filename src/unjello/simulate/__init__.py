@@ -33,9 +33,9 @@ by a cubic spline.
 from .clip import read_scene, simulate_clip
 from .lens import RotatingFrame, simulate_rotation
 from .lines import street_scene
-from .motion import MOTIONS, Motion, gyro_samples, motion_from_spec
+from .motion import MOTIONS, Motion, Vibration, gyro_samples, motion_from_spec
 from .render import SCENES, Layer, SimulatedFrame, pole_layers, scene_layers, simulate
 
-__all__ = ["Motion", "MOTIONS", "SCENES", "Layer", "SimulatedFrame", "simulate",
+__all__ = ["Motion", "MOTIONS", "Vibration", "SCENES", "Layer", "SimulatedFrame", "simulate",
            "motion_from_spec", "scene_layers", "pole_layers", "gyro_samples", "read_scene",
            "simulate_clip", "RotatingFrame", "simulate_rotation", "street_scene"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError, SettingsError
 
-__all__ = ["Motion", "MOTIONS", "WALK_SHAKE", "gyro_samples", "motion_from_spec"]
+__all__ = ["Motion", "MOTIONS", "Vibration", "WALK_SHAKE", "gyro_samples", "motion_from_spec"]
 
 #: The walk's shake, in units of ``'shake'``'s: frame-to-frame jitter of 11.6 px per
 #: frame squared at 640x360 on a 2 px/frame pan, the walk of issue 31 (11.4).
@@ -130,6 +130,41 @@ class Motion:
                 return np.stack([CubicSpline(kt, kx)(t), CubicSpline(kt, ky)(t)], axis=-1)
             return np.stack([np.interp(t, kt, kx), np.interp(t, kt, ky)], axis=-1)
         raise SettingsError(f"unknown motion {self.kind!r}; use one of {', '.join(MOTIONS)}")
+
+
+@dataclass(frozen=True)
+class Vibration:
+    """Drone jello of chosen frequencies on a steady drift: ``D(t)`` in px.
+
+    Parameters
+    ----------
+    across, updown : tuple of (Hz, px)
+        Sinusoids along the rows (x) and across them (y): frequency and amplitude.
+    drift : float
+        Pan along x, px per second.
+    fps : float
+        Frame rate, to turn Hz and seconds into frame intervals.
+
+    Examples
+    --------
+    >>> v = Vibration(((30.0, 2.0),), (), drift=60.0, fps=30.0)
+    >>> np.round(v(np.array([0.0, 1.0])), 6).tolist()  # whole cycles a frame: drift only
+    [[0.0, 0.0], [2.0, 0.0]]
+    """
+
+    across: tuple[tuple[float, float], ...]
+    updown: tuple[tuple[float, float], ...] = ()
+    drift: float = 0.0
+    fps: float = 30.0
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """Return ``D(t)`` as an array of shape ``t.shape + (2,)``."""
+        sec = np.asarray(t, dtype=np.float64) / self.fps
+        x = sum((a * np.sin(2 * np.pi * f * sec + 0.7 * k)
+                 for k, (f, a) in enumerate(self.across)), np.zeros_like(sec))
+        y = sum((a * np.sin(2 * np.pi * f * sec + 1.9 + 0.7 * k)
+                 for k, (f, a) in enumerate(self.updown)), np.zeros_like(sec))
+        return np.stack([x + self.drift * sec, y], axis=-1)
 
 
 def gyro_samples(motion: Motion, focal: float, duration: float, *, rate: float = 400.0,
