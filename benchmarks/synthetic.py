@@ -14,15 +14,14 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import io
 import time
 
-import av
 import cv2
 import numpy as np
 from skimage import data
 
 from unjello.config import CorrectionConfig
+from unjello.io.roundtrip import h264_roundtrip
 from unjello.metrics import displacement_error, psnr
 from unjello.motion.dense import DenseConfig
 from unjello.pipeline import correct_frames
@@ -77,20 +76,7 @@ def degrade(frames: list[np.ndarray], seed: int = 0) -> list[np.ndarray]:
     """Add sensor noise, then encode with libx264 CRF 26 and decode again."""
     rng = np.random.default_rng(seed)
     noisy = [np.clip(f + rng.normal(0, 3.0, f.shape), 0, 255).astype(np.uint8) for f in frames]
-    buf = io.BytesIO()
-    with av.open(buf, "w", format="mp4") as out:
-        vs = out.add_stream("libx264", rate=30)
-        vs.height, vs.width = noisy[0].shape[:2]
-        vs.pix_fmt = "yuv420p"
-        vs.options = {"crf": "26", "preset": "medium"}
-        for f in noisy:
-            for p in vs.encode(av.VideoFrame.from_ndarray(f, format="rgb24")):
-                out.mux(p)
-        for p in vs.encode():
-            out.mux(p)
-    buf.seek(0)
-    with av.open(buf) as c:
-        return [fr.to_ndarray(format="rgb24") for fr in c.decode(video=0)]
+    return h264_roundtrip(noisy, 26)
 
 
 def region_psnr(image: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:
