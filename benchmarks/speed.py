@@ -169,8 +169,10 @@ def stage_run(pictures: list, timing: SensorTiming, config: CorrectionConfig) ->
 
 #: What the profile measures: a label and the functions (module, attribute) it covers.
 STAGES = (
-    ("luma (to top-bottom, grey)", [("unjello.pipeline", "_luma255"),
-                                    ("unjello.pipeline", "to_top_bottom")]),
+    ("luma (to top-bottom, grey)", [("unjello.corrector", "_luma255"),
+                                    ("unjello.corrector", "to_top_bottom")]),
+    ("where the clip breaks", [("unjello.motion.cuts.Breaks", "add"),
+                               ("unjello.motion.cuts.Breaks", "before")]),
     ("flow: DIS (and its large-motion rerun)", [("unjello.motion.flow", "optical_flow")]),
     ("flow: inverse", [("unjello.motion.flow", "invert_flow")]),
     ("flow: consistency", [("unjello.motion.flow", "consistent")]),

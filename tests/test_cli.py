@@ -420,3 +420,45 @@ def test_probe_reports_the_readout_and_lens_correct_uses(shared_data, tmp_path):
                              tmp_path / "p.json"))
     assert "no preset written" in line and "default 1" not in line
     assert "correct takes its readout by itself (camera database: GoPro HERO5 Black" in line
+
+
+def _ts(path, size, n, scene, first):
+    """A rolling-shutter pan as an MPEG transport stream, its pts from ``first``."""
+    from fractions import Fraction
+
+    import av
+
+    frames = [s.rolling for s in simulate(scene, Motion("pan", speed=5.0), SensorTiming(0.9),
+                                          n, size=size)]
+    with av.open(str(path), "w", format="mpegts") as out:
+        vs = out.add_stream("libx264", rate=30)
+        vs.width, vs.height = size
+        vs.pix_fmt = "yuv420p"
+        vs.options = {"crf": "16", "preset": "ultrafast"}
+        for i, f in enumerate(frames):
+            vf = av.VideoFrame.from_ndarray(f, format="rgb24")
+            vf.pts, vf.time_base = first + i, Fraction(1, 30)
+            for p in vs.encode(vf):
+                out.mux(p)
+        for p in vs.encode():
+            out.mux(p)
+    return path.read_bytes()
+
+
+def test_a_stream_that_changes_its_picture_size_is_scaled_and_broken_there(tmp_path):
+    # Two transport streams joined, as recorders and live captures do: 320x180, then
+    # 256x144. The second part is scaled to the first size (as ffmpeg does), with one
+    # warning, and its motion starts again (no flow across the change).
+    from skimage import data
+
+    joined = tmp_path / "joined.ts"
+    joined.write_bytes(_ts(tmp_path / "a.ts", (320, 180), 8, data.astronaut(), 0)
+                       + _ts(tmp_path / "b.ts", (256, 144), 8, data.coffee(), 8))
+    res = run("correct", joined, "-o", tmp_path / "out.mp4", "--json")
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("the picture size changed part-way (256x144)") == 1
+    doc = json.loads(res.stdout)
+    assert doc["frames"] == 16
+    assert [(s["first"], s["last"], s["why"]) for s in doc["stretches"]] == [
+        (0, 7, "start"), (8, 15, "size")]
+    assert all(s["model"] == "smooth" for s in doc["stretches"])

@@ -14,227 +14,29 @@ import dataclasses
 import math
 import os
 from collections import deque
-from collections.abc import Callable, Iterable, MutableMapping, Sequence
-from concurrent.futures import Executor
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
+from .corrector import Corrector
 from .errors import InputError, SettingsError
 from .exports import SideOutputs
 from .gyroflow import check_project, clip_project
-from .gyrolog import GyroLog
 from .heap import trim
 from .io.codecs import check_output
-from .io.sidecars import read_gyro
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.video import VIDEO_SUFFIXES, is_pipe
-from .lens import Lens
-from .motion.dense import DenseMethod
-from .motion.fallback import GyroOrDense
-from .motion.paper import PaperMethod
-from .motion.replay import Replay
 from .parallel import cores, frame_threads
-from .stabilize import Stabilizer, track, tracking_copy
-from .timing import SensorTiming, to_top_bottom
+from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory
-from .warp import PictureWarper
 
 __all__ = ["Corrector", "correct_frames", "correct_video", "Progress"]
 
 Progress = Callable[[int, int], None]
-
-
-def _luma255(image: np.ndarray, max_value: float) -> np.ndarray:
-    """Grey 0-255 of a plane or colour image; 8-bit luma is passed through as is."""
-    if image.ndim == 2 and image.dtype == np.uint8 and max_value == 255:
-        return image  # the methods convert after their own downscaling
-    img = image
-    if img.ndim == 3:
-        rgb = img[..., :3]
-        if rgb.dtype not in (np.uint8, np.uint16, np.float32):
-            rgb = rgb.astype(np.float32)
-        img = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
-    return img.astype(np.float32) * np.float32(255.0 / max_value)
-
-
-def _max_value(dtype: np.dtype) -> float:
-    if np.issubdtype(dtype, np.integer):
-        return float(np.iinfo(dtype).max)
-    return 1.0
-
-
-class Corrector:
-    """Correct pictures one at a time with bounded look-ahead.
-
-    A *picture* is a list of planes in coded orientation; the first is the luma (or a
-    colour image) and drives the motion estimate; every plane is warped by the same
-    displacement (:class:`~unjello.warp.PictureWarper`).
-
-    Parameters
-    ----------
-    timing : SensorTiming
-        Readout, direction and reference.
-    config : CorrectionConfig
-        Method and warp.
-    max_value : float, optional
-        White level of the first plane (255 for 8 bit, 1023 for 10 bit); default from
-        the dtype.
-    motion : Trajectory, optional
-        Apply this motion (e.g. from ``motion_in``) instead of estimating it.
-    fps : float
-        Frame rate, for the gyro method.
-    gyro_log : GyroLog, optional
-        The gyro method's samples (default: read from ``config.gyro.path``).
-    flows : mutable mapping, optional
-        The dense method's flows between frame pairs, kept across correctors of the same
-        frames (:class:`~unjello.motion.dense.DenseMethod`).
-    only : set of int, optional
-        Warp only these frames (by index from the first pushed); the others come back as
-        they were read, with their motion (the preview wants one frame of a window).
-    gyro_fallback : bool or str
-        With the gyro method, what a gyro that does not fit the picture leads to
-        (:class:`~unjello.motion.fallback.GyroOrDense`): False, an error; True, the
-        dense method; a string, the dense method even if it fits (the reason).
-    executor : concurrent.futures.Executor, optional
-        Threads that measure the next frames' flows meanwhile
-        (:func:`unjello.parallel.frame_threads`); the result is the same.
-    workers : int
-        The executor's threads (that many frame pairs are measured ahead).
-
-    Attributes
-    ----------
-    method : str
-        The method that measures the motion (``'dense'`` after a fallback).
-    """
-
-    def __init__(self, timing: SensorTiming, config: CorrectionConfig = CorrectionConfig(),
-                 max_value: float | None = None, motion: Trajectory | None = None,
-                 fps: float = 30.0, gyro_log: GyroLog | None = None,
-                 flows: MutableMapping[tuple, tuple] | None = None,
-                 only: set[int] | None = None, gyro_fallback: bool | str = False,
-                 executor: Executor | None = None, workers: int = 2) -> None:
-        self.timing = timing
-        self.config = config
-        self.max_value = max_value
-        self._method: PaperMethod | DenseMethod | GyroOrDense | Replay
-        if motion is not None:
-            self._method = Replay(motion)
-        elif config.method == "paper":
-            self._method = PaperMethod(timing, config.paper)
-        elif config.method == "gyro":
-            if gyro_log is None:
-                if not config.gyro.path:
-                    raise InputError("the gyro method needs a gyro log: give gyro=FILE")
-                gyro_log = read_gyro(config.gyro.path, config.gyro.layout, config.gyro.units)
-            self._method = GyroOrDense(timing, gyro_log, config.gyro, config.dense, fps,
-                                       flows, gyro_fallback)
-        else:
-            self._method = DenseMethod(timing, config.dense, flows, executor, workers)
-        lens = None
-        if config.undistort:
-            if config.gyro.focal is None or config.gyro.distortion is None:
-                raise SettingsError("undistort needs the lens: lens_profile=, camera= (a "
-                                    "camera the database has a lens for), or focal= with "
-                                    "distortion=")
-            lens = Lens(config.gyro.focal, config.gyro.distortion)
-        self.warp = PictureWarper(timing, config.warp, config.fill, undistort=lens)
-        self.fps = fps
-        self._stabilizer: Stabilizer | None = None
-        # The previous frame's tracking copy, when stabilising.
-        self._luma: tuple[np.ndarray, float] | None = None
-        self._count = 0  # pictures pushed
-        self._only = only
-        self._held: deque[list[np.ndarray]] = deque()
-        self._last: list[np.ndarray] | None = None  # the previous picture, as read
-        self._last2: list[np.ndarray] | None = None  # and the one before it
-
-    def push(self, planes: Sequence[np.ndarray], start: float
-             ) -> list[tuple[list[np.ndarray], FrameMotion]]:
-        """Add a picture whose first scanline starts at ``start`` (frame intervals).
-
-        Returns
-        -------
-        list of (planes, FrameMotion)
-            Pictures now corrected, in order.
-        """
-        planes = list(planes)
-        mv = self.max_value or _max_value(planes[0].dtype)
-        luma = _luma255(to_top_bottom(planes[0], self.timing.direction), mv)
-        self._held.append(planes)
-        motions = self._method.push(luma, start)
-        if self.config.stabilize.enabled:
-            if self._stabilizer is None:
-                self._stabilizer = Stabilizer(self.config.stabilize, self.timing,
-                                              (luma.shape[1], luma.shape[0]), self.fps)
-            tracks = {}
-            gyro = self.gyro
-            if gyro is not None and gyro.method == "gyro" and gyro.agreement is not None:
-                self._luma = None  # calibrated and used: its poses give every step
-            else:
-                small = tracking_copy(luma)
-                if self._luma is not None:  # steps and roll, from points tracked across frames
-                    tracks[self._count] = track(self._luma, small)
-                self._luma = small
-            motions = self._stabilizer.push(motions, tracks, self._poses(motions))
-        self._count += 1
-        return self._apply(motions)
-
-    @property
-    def pushed(self) -> int:
-        """Pictures pushed so far (those read around a part of the clip too)."""
-        return self._count
-
-    @property
-    def method(self) -> str:
-        """The method that measures the motion (``'dense'`` after a gyro's fallback)."""
-        if isinstance(self._method, GyroOrDense):
-            return self._method.method
-        return "replay" if isinstance(self._method, Replay) else self.config.method
-
-    @property
-    def vibration(self) -> float | None:
-        """The dense method's detected vibration (its wobble), if ``auto`` switched it on."""
-        return getattr(self._method, "wobble", None)
-
-    @property
-    def gyro(self) -> GyroOrDense | None:
-        """The gyro method and what became of it (None for the other methods)."""
-        return self._method if isinstance(self._method, GyroOrDense) else None
-
-    def _poses(self, motions: list[FrameMotion]) -> dict[int, np.ndarray]:
-        """Return the gyro's pose of each frame for the stabiliser (none from other methods)."""
-        if self.gyro is None:
-            return {}
-        poses = {fm.index: self.gyro.pose(fm.start) for fm in motions}
-        return {k: p for k, p in poses.items() if p is not None}
-
-    def flush(self) -> list[tuple[list[np.ndarray], FrameMotion]]:
-        """Correct the pictures still held at the end of the clip."""
-        motions = self._method.flush()
-        if self._stabilizer is not None:
-            motions = (self._stabilizer.push(motions, poses=self._poses(motions))
-                       + self._stabilizer.flush())
-        return self._apply(motions)
-
-    def _apply(self, motions: list[FrameMotion]) -> list[tuple[list[np.ndarray], FrameMotion]]:
-        out = []
-        for fm in motions:
-            planes = self._held.popleft()
-            around = {-2: self._last2, -1: self._last, 1: self._held[0] if self._held else None,
-                      2: self._held[1] if len(self._held) > 1 else None}
-            skip = self._only is not None and fm.index not in self._only
-            if skip:
-                out.append((planes, fm))
-            else:
-                warped = self.warp(planes, fm, around)
-                out.append((warped, dataclasses.replace(fm, unseen=self.warp.unseen)))
-            self._last2, self._last = self._last, planes
-        return out
 
 
 def correct_frames(
@@ -297,6 +99,7 @@ def correct_frames(
         out.append(planes[0])
         traj.frames.append(fm)
     traj.vibration = corr.vibration
+    traj.stretches = corr.close_stretches()
     return out, traj
 
 
@@ -406,6 +209,12 @@ def correct_video(
                                   workers=workers)
             sink = PictureSink(dst_p, source, config.encode, resolved.fps)
             _stream(source, sink, corrector, side, traj, resolved, progress, config)
+        resized, size = source.resized
+        if log and resized:
+            log(f"warning: the picture size changed part-way ({size[0]}x{size[1]}): "
+                f"{resized} frame(s) scaled to the first frame's "
+                f"{source.info.width}x{source.info.height}, as ffmpeg does; the motion "
+                "starts again there")
         if log and source.damaged:
             log(f"warning: {source.damaged} frame(s) of the input were damaged (the decoder "
                 "patched over the errors); they and their corrections may show blocks")
@@ -473,12 +282,13 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
                 sink.copy_audio(item)
                 continue
             held.append(item)
-            emit(corrector.push(item.planes, item.start))
+            emit(corrector.push(item.planes, item.start, item.resized))
             if source.past_end and not any(p.keep for p in held):
                 break  # the part is written: no need to read on
         else:
             emit(corrector.flush())
         traj.vibration = corrector.vibration
+        traj.stretches = corrector.close_stretches()
         sink.close()
         side.finish()
     except BaseException:

@@ -34,6 +34,7 @@ from typing import Any
 from .batch import executor
 from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
+from .corrector import Corrector, _luma255
 from .errors import InputError, SettingsError, UnjelloError
 from .heap import trim
 from .io.codecs import check_output
@@ -43,7 +44,7 @@ from .io.source import FrameSource
 from .io.video import VideoReader, VideoWriter
 from .motion.dense import DenseMethod
 from .parallel import cores, frame_threads
-from .pipeline import Corrector, _light, _luma255
+from .pipeline import _light
 from .stabilize import Stabilizer
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Trajectory

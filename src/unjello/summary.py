@@ -128,7 +128,8 @@ class RunSummary:
                 "unseen": [round(f.unseen, 4) for f in traj.frames],
                 "spun_frames": list(self.spun), "vibration": self.vibration,
                 "confidence": [round(f.confidence, 3) for f in traj.frames],
-                "stabilized": self.stabilized}
+                "stabilized": self.stabilized,
+                "stretches": [s.as_json() for s in traj.stretches]}
 
 
 def summarize(traj: Trajectory, stabilize: tuple[float, object] | None = None) -> RunSummary:

@@ -61,7 +61,7 @@ import numpy as np
 from .errors import InputError, cannot_write
 from .timing import SensorTiming
 
-__all__ = ["FrameMotion", "Reframe", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
+__all__ = ["FrameMotion", "Reframe", "Stretch", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
            "scanline_displacement", "pack", "unpack"]
 
 SCHEMA_VERSION = 2
@@ -319,6 +319,49 @@ def _every(values: np.ndarray, step: float) -> np.ndarray:
                       interpolation=cv2.INTER_AREA)
 
 
+@dataclass(frozen=True)
+class Stretch:
+    """A stretch of a clip between breaks (cuts, flashes, size changes), and its model.
+
+    Attributes
+    ----------
+    first, last : int
+        Its first and last frame (``last`` is -1 while it goes on).
+    why : str
+        What started it: ``'start'`` (the clip's), ``'cut'`` or ``'size'``
+        (:mod:`unjello.motion.cuts`).
+    evidence : dict
+        The break's measurements (``similarity``, ``light``, ``tones``).
+    model : str or None
+        The dense method's camera model over it: ``'smooth'`` or ``'vibration'``.
+    choice : dict
+        What the vibration test measured (:attr:`unjello.motion.dense.DenseMethod.choice`).
+    wobble : float or None
+        The vibration's wobble (share of the height) where the vibration model was chosen.
+    """
+
+    first: int
+    why: str
+    evidence: dict = field(default_factory=dict)
+    last: int = -1
+    model: str | None = None
+    choice: dict = field(default_factory=dict)
+    wobble: float | None = None
+
+    def ended(self, last: int, method: object) -> Stretch:
+        """Return it ended at frame ``last``, with the model ``method`` took over it."""
+        vibrating = getattr(method, "vibrating", None)
+        model = None if vibrating is None else ("vibration" if vibrating else "smooth")
+        return Stretch(self.first, self.why, self.evidence, last, model,
+                       dict(getattr(method, "choice", {}) or {}),
+                       getattr(method, "wobble", None))
+
+    def as_json(self) -> dict:
+        """Return it as ``correct --json`` gives it."""
+        return {"first": self.first, "last": self.last, "why": self.why,
+                "evidence": self.evidence, "model": self.model, "choice": self.choice}
+
+
 @dataclass
 class Trajectory:
     """Per-scanline motion of a whole clip.
@@ -336,6 +379,8 @@ class Trajectory:
     vibration : float, optional
         The dense method's detected vibration (its wobble, a share of the height) when
         ``vibration='auto'`` switched its window on; None otherwise (not stored in JSON).
+    stretches : list of Stretch
+        The clip's stretches between breaks, as the run found them (not stored in JSON).
     fps : float, optional
         Frames per second of the clip (the unit of ``start`` is its frame interval).
     source : str
@@ -349,6 +394,7 @@ class Trajectory:
     vibration: float | None = None
     fps: float | None = None
     source: str = ""
+    stretches: list[Stretch] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.frames)

@@ -75,6 +75,9 @@ class Picture:
     keep : bool
         Whether it is in the part of the clip asked for (:meth:`FrameSource.items`);
         False for a frame read around it, for its motion only.
+    resized : bool
+        The video changed its picture size at this frame (every frame is scaled to the
+        first one's size: :attr:`FrameSource.resized`).
     """
 
     planes: list[np.ndarray]
@@ -82,6 +85,7 @@ class Picture:
     pts: int | None = None
     name: str | None = None
     keep: bool = True
+    resized: bool = False
 
 
 def _describe(img: np.ndarray) -> str:
@@ -139,6 +143,13 @@ class FrameSource:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @property
+    def resized(self) -> tuple[int, tuple[int, int] | None]:
+        """Video frames read so far at another picture size (scaled), and the first such."""
+        if self.reader is None:
+            return 0, None
+        return self.reader.resized, self.reader.other_size
 
     @property
     def damaged(self) -> int:
@@ -216,8 +227,9 @@ class FrameSource:
             known = pts is not None and first is not None
             start = (pts - first) * tb * rate if known else float(n)  # type: ignore[operator]
             n += 1
+            changed = self.reader.size_changed
             if window is None:
-                yield Picture(item, start, pts=pts)  # type: ignore[arg-type]
+                yield Picture(item, start, pts=pts, resized=changed)  # type: ignore[arg-type]
                 continue
             inside = window.keep(start / rate)
             if inside is None:
@@ -225,7 +237,8 @@ class FrameSource:
             self.past_end = window.over
             shifted = (pts - first - round(window.offset / tb)  # type: ignore[operator]
                        if inside and known else pts)
-            yield Picture(item, start, pts=shifted, keep=inside)  # type: ignore[arg-type]
+            yield Picture(item, start, pts=shifted, keep=inside,  # type: ignore[arg-type]
+                          resized=changed)
             if inside:
                 yield from window.audio(None)  # what waited for the first picture's time
         if window is not None and (n or first is not None):

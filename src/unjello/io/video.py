@@ -288,6 +288,13 @@ class VideoReader:
         self.full_range = self.info.color.get("color_range") == FULL
         #: Frames the decoder flagged as damaged (errors it concealed) so far.
         self.damaged = 0
+        #: Frames decoded at another picture size than the first, scaled to it (as ffmpeg
+        #: scales a stream whose size changes to its output's), and the first such size.
+        self.resized = 0
+        self.other_size: tuple[int, int] | None = None
+        #: Whether the frame last yielded was decoded at another size than the one before.
+        self.size_changed = False
+        self._decoded: tuple[int, int] | None = None
         self.audio = list(self._c.streams.audio)
 
     def __enter__(self) -> VideoReader:
@@ -365,7 +372,17 @@ class VideoReader:
 
     def _planes(self, frame: av.VideoFrame) -> list[np.ndarray]:
         name = frame.format.name
-        if name != self.work_format and _work_format(name) != self.work_format:
+        size = (frame.width, frame.height)
+        self.size_changed = self._decoded is not None and size != self._decoded
+        self._decoded = size
+        if size != (self.info.width, self.info.height):
+            self.resized += 1
+            self.other_size = self.other_size or size
+            r = _range_of(self.full_range)
+            frame = frame.reformat(width=self.info.width, height=self.info.height,
+                                   format=self.work_format, interpolation="BICUBIC",
+                                   src_color_range=r, dst_color_range=r)
+        elif name != self.work_format and _work_format(name) != self.work_format:
             # Another layout (NV12, RGB ...): converted, the levels' range kept.
             r = _range_of(self.full_range)
             frame = frame.reformat(format=self.work_format, src_color_range=r,

@@ -81,6 +81,7 @@ from .vibration import (
     detect_vibration,
     sinusoid_pursuit,
     textured,
+    vibration_level,
 )
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
@@ -149,6 +150,8 @@ class DenseMethod(SafeField):
         self._note = ""  # added to every frame's note once vibration is detected
         #: The wobble (share of the height) for which vibration was detected, else None.
         self.wobble: float | None = None
+        #: What the vibration test measured (pairs, wobble, share: :func:`vibration_level`).
+        self.choice: dict[str, float] = {}
         self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
         self._count = 0  # frames pushed
         self._measured = 0  # frames whose flow to the previous frame is taken
@@ -329,7 +332,10 @@ class DenseMethod(SafeField):
             return
         halves, self._halves = self._halves, []
         # (a clip shorter than the probe gains little from it)
-        wobble = detect_vibration(halves, self._frames[0].image.shape[0], self.config.probe)
+        h = self._frames[0].image.shape[0]
+        wobble = detect_vibration(halves, h, self.config.probe)
+        level, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], h)
+        self.choice = {"pairs": len(halves), "wobble": round(level, 5), "share": round(share, 3)}
         if wobble is not None:
             self.config = self.config.vibrating()
             self.wobble = float(wobble)
