@@ -177,7 +177,7 @@ STAGES = (
     ("flow: inverse", [("unjello.motion.flow", "invert_flow")]),
     ("flow: consistency", [("unjello.motion.flow", "consistent")]),
     ("row summaries", [("unjello.motion.dense", "row_flows"),
-                       ("unjello.motion.dense", "half_row_flows")]),
+                       ("unjello.motion.vibration", "probe_pair")]),
     ("trajectory solve", [("unjello.motion.dense", "solve_camera_trajectory")]),
     ("per-pixel: snap to global", [("unjello.motion.dense", "snap_to_global")]),
     ("per-pixel: residual", [("unjello.motion.dense.DenseMethod", "_residual")]),

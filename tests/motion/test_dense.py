@@ -138,7 +138,7 @@ def test_a_vibrating_clip_has_its_probed_pairs_measured_again_in_full(scene, mon
     method = DenseMethod(SensorTiming(1.0), DenseConfig())
     out = []
     for k, s in enumerate(sim):
-        out += method.push(s.rolling.mean(axis=2).astype(np.uint8), k / 30)
+        out += method.push(s.rolling.mean(axis=2).astype(np.uint8), float(k))
     out += method.flush()
     assert method.vibrating and len(out) == 12
     last = {}

@@ -68,7 +68,6 @@ from .flow import (
     ROW_AGREE,
     FlowSettings,
     flow_pair,
-    half_row_flows,
     median_along,
     optical_flow,
     row_flows,
@@ -78,10 +77,10 @@ from .vibration import (
     PROBE_CONTRAST,
     PROBE_WAIT,
     VIBRATION,
-    detect_vibration,
+    choose_model,
+    probe_pair,
     sinusoid_pursuit,
     textured,
-    vibration_level,
 )
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
@@ -146,11 +145,11 @@ class DenseMethod(SafeField):
         if config.vibration == "on":
             self.config = config.vibrating()
         self._decided = config.vibration != "auto"
-        self._halves: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
+        self._halves: list[tuple] = []  # probed pairs: their starts, left and right rows
         self._note = ""  # added to every frame's note once vibration is detected
         #: The wobble (share of the height) for which vibration was detected, else None.
         self.wobble: float | None = None
-        #: What the vibration test measured (pairs, wobble, share: :func:`vibration_level`).
+        #: The evidence that chose the camera model (:func:`choose_model`).
         self.choice: dict[str, float] = {}
         self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
         self._count = 0  # frames pushed
@@ -255,7 +254,8 @@ class DenseMethod(SafeField):
                 # Rows of each half, for the vibration test (frames too flat to give
                 # flow, as in a fade from black, would wobble with their noise), of
                 # two-dimensional texture only (:func:`textured`).
-                self._halves.append(half_row_flows(cur.bwd, cur.bwd_ok & textured(cur.image)))
+                self._halves.append(probe_pair(prev.start, cur.start, cur.bwd,
+                                               cur.bwd_ok & textured(cur.image)))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
@@ -326,21 +326,19 @@ class DenseMethod(SafeField):
         return lo, hi
 
     def _decide(self) -> None:
-        """Switch to :data:`VIBRATION` if the probed pairs wobble (decided once)."""
+        """Switch to :data:`VIBRATION` where the probed pairs choose it (:func:`choose_model`)."""
         self._decided = True
-        if not self._frames:
-            return
         halves, self._halves = self._halves, []
-        # (a clip shorter than the probe gains little from it)
-        h = self._frames[0].image.shape[0]
-        wobble = detect_vibration(halves, h, self.config.probe)
-        level, share = vibration_level([p[0] for p in halves], [p[1] for p in halves], h)
-        self.choice = {"pairs": len(halves), "wobble": round(level, 5), "share": round(share, 3)}
-        if wobble is not None:
-            self.config = self.config.vibrating()
-            self.wobble = float(wobble)
-            self._note = (f"vibration detected (wobble {100 * wobble:.2f}% of the height): "
-                          "one-second window")
+        self.choice = {"pairs": len(halves)}
+        if not self._frames or len(halves) < self.config.probe:  # (too short to gain)
+            return
+        step = max(self.timing.readout / self.config.grid, 1.0 / 256)
+        vibrating, self.choice = choose_model(halves, self._frames[0].image.shape[0],
+                                              self.timing.readout, step, self.config.smoothness)
+        if vibrating:
+            self.config, self.wobble = self.config.vibrating(), self.choice["wobble"]
+            self._note = (f"vibration detected (wobble {100 * self.wobble:.2f}% of the "
+                          "height): one-second window")
             self._remeasure()
 
     def _remeasure(self) -> None:

@@ -77,7 +77,7 @@ class DenseConfig:
     vibration : {'auto', 'on', 'off'}
         Vibration near the frame rate (drone jello): ``on`` uses :data:`VIBRATION`
         throughout; ``auto`` looks at the first ``probe`` frame pairs and switches to it
-        when their row flows wobble (:func:`~unjello.motion.vibration.detect_vibration`).
+        where their evidence chooses it (:func:`~unjello.motion.vibration.choose_model`).
     probe : int
         Frame pairs with contrast looked at before the first frame is emitted, to decide
         (waiting at most twice this many pairs).

@@ -457,7 +457,8 @@ def cases() -> list[Case]:
 CI = ("pan/pan/photo/0", "pan/whip/sharp/1", "pan/tilt/photo/0", "pan/pan/parallax/4",
       "pan/rest/low/3", "pan/stop/photo/0", "shake/photo/6", "shake/sharp/7",
       "shake/parallax/3", "walk/sharp/1", "walk/photo/0", "jello/photo/2", "jello/photo/10",
-      "jello/issue-photos-38+24", "still/object/0", "still/object/5", "still/spinner/9",
+      "jello/issue-photos-38+24", "jello/sharp/0", "pan/tilt/sky/2", "still/object/0",
+      "still/object/5", "still/spinner/9",
       "cut/pan-shake/2", "cut/tilt-whip/3", "cut/diagonal-walk/5", "fade/walk/3",
       "fade/shake/4", "flash/shake/0", "flash/pan/5")
 
