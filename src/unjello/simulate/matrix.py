@@ -64,7 +64,8 @@ class Case:
     scene : str
         ``photo``, ``sharp`` (text, brick, gravel, coins), ``sky`` (a flat sky behind
         flat poles, 2.2 times as near), ``low`` (low texture), ``parallax``, ``spinner``
-        or ``object`` (a photo a quarter of the frame wide crossing the scene).
+        ``object`` (a photo a quarter of the frame wide and 45 % as high crossing the
+        scene) or ``tall`` (the same, the frame's whole height).
     speed : float
         Pans: share of the width a frame; ``object``: the object's own speed, likewise.
     jello : tuple
@@ -204,7 +205,7 @@ def _crossing(case: Case, camera: Callable[[np.ndarray], np.ndarray]) -> list[La
     w, h = case.size
     if case.direction in ("left-right", "right-left"):
         w, h = h, w
-    lw, lh = max(8, w // 4), max(8, int(0.45 * h))
+    lw, lh = max(8, w // 4), h if case.scene == "tall" else max(8, int(0.45 * h))
     tex = to_top_bottom(cv2.resize(_skimage("coffee"), (lw, lh), interpolation=cv2.INTER_AREA),
                         case.direction).astype(np.float32)
     alpha = np.ones(tex.shape[:2], np.float32)
@@ -216,7 +217,7 @@ def _crossing(case: Case, camera: Callable[[np.ndarray], np.ndarray]) -> list[La
         t = np.asarray(t, np.float64)
         return camera(t) + np.stack([own * t, 0.0 * t], axis=-1)
 
-    return [Layer(tex, alpha, (x0, 0.3 * h), path)]
+    return [Layer(tex, alpha, (x0, 0.0 if case.scene == "tall" else 0.3 * h), path)]
 
 
 def _layers(case: Case, camera: Callable[[np.ndarray], np.ndarray]) -> str | list[Layer]:
@@ -226,7 +227,7 @@ def _layers(case: Case, camera: Callable[[np.ndarray], np.ndarray]) -> str | lis
         return "parallax"
     if case.scene == "spinner":
         return "propeller" if case.speed <= 0.05 else "wheel"
-    if case.scene == "object":
+    if case.scene in ("object", "tall"):
         return _crossing(case, camera)
     return "planar"
 
@@ -258,7 +259,7 @@ def _gain(images: list[np.ndarray], gains: Sequence[float], lift: Sequence[float
 
 def _background(sim: SimulatedFrame, case: Case) -> np.ndarray | None:
     """Return the background no object covers in the frame or at the reference time."""
-    if case.scene != "object" or sim.layer is None:
+    if case.scene not in ("object", "tall") or sim.layer is None:
         return None
     grow = int(np.ceil(_px(case, case.speed) * case.readout)) + 6
     obj = cv2.dilate((sim.layer != 0).astype(np.uint8), np.ones((2 * grow + 1,) * 2, np.uint8))
@@ -448,6 +449,10 @@ def cases() -> list[Case]:
             base = firsts[int(rng.integers(len(firsts)))]
             out.append(dataclasses.replace(base, name=f"{effect}/{base.motion}/{k}",
                                            kind=effect, effect=effect, frames=14))
+    # A photo as high as the frame crossing a still background (640 x 360, readout 1.0).
+    out += [Case(f"still/tall/{image}-{px}px", "still", "still", "tall", image=image,
+                 speed=px / 640, size=(640, 360), frames=12, crf=18, noise=1.0)
+            for image in ("rocket", "astronaut") for px in (14, 30)]
     return out
 
 
