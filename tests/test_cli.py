@@ -423,7 +423,7 @@ def test_probe_reports_the_readout_and_lens_correct_uses(shared_data, tmp_path):
 
 
 def _ts(path, size, n, scene, first):
-    """A rolling-shutter pan as an MPEG transport stream, its pts from ``first``."""
+    """A rolling-shutter pan as an MPEG transport stream, its frames' pts from ``first``."""
     from fractions import Fraction
 
     import av
@@ -462,3 +462,22 @@ def test_a_stream_that_changes_its_picture_size_is_scaled_and_broken_there(tmp_p
     assert [(s["first"], s["last"], s["why"]) for s in doc["stretches"]] == [
         (0, 7, "start"), (8, 15, "size")]
     assert all(s["model"] == "smooth" for s in doc["stretches"])
+
+
+def test_a_stream_whose_timestamps_start_over_is_carried_on_and_broken_there(tmp_path):
+    # Two transport streams joined whose timestamps both start at 0: carried on (the
+    # output's keep increasing), one warning, and the motion starts again there.
+    import av
+    from skimage import data
+
+    joined = tmp_path / "joined.ts"
+    joined.write_bytes(_ts(tmp_path / "a.ts", (320, 180), 8, data.astronaut(), 0)
+                       + _ts(tmp_path / "b.ts", (320, 180), 8, data.coffee(), 0))
+    res = run("correct", joined, "-o", tmp_path / "out.mp4", "--json")
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("timestamps started over 1 time(s)") == 1
+    doc = json.loads(res.stdout)
+    assert [(s["first"], s["why"]) for s in doc["stretches"]] == [(0, "start"), (8, "time")]
+    with av.open(str(tmp_path / "out.mp4")) as c:
+        pts = [f.pts for f in c.decode(video=0)]
+    assert len(pts) == 16 and all(b > a for a, b in zip(pts, pts[1:], strict=False))

@@ -151,13 +151,14 @@ class Corrector:
         self._last: list[np.ndarray] | None = None  # the previous picture, as read
         self._last2: list[np.ndarray] | None = None  # and the one before it
 
-    def push(self, planes: Sequence[np.ndarray], start: float, resized: bool = False
+    def push(self, planes: Sequence[np.ndarray], start: float, joined: str | None = None
              ) -> list[tuple[list[np.ndarray], FrameMotion]]:
         """Add a picture whose first scanline starts at ``start`` (frame intervals).
 
-        ``resized``: the reader scaled it from another picture size than the last one's
-        (a break, :mod:`unjello.motion.cuts`). At a break the pictures held are corrected
-        as a clip's last, and a new stretch starts with this one.
+        ``joined``: the reader found two streams joined before it (``'size'``: another
+        picture size, scaled; ``'time'``: timestamps that started over), a break
+        (:mod:`unjello.motion.cuts`). At a break the pictures held are corrected as a
+        clip's last, and a new stretch starts with this one.
 
         Returns
         -------
@@ -170,7 +171,7 @@ class Corrector:
         if self._breaks is None:
             return self._feed(planes, luma, start)
         # Whether the clip breaks before a picture is decided with the picture after it.
-        self._breaks.add(luma, resized)
+        self._breaks.add(luma, joined)
         done = []
         if self._pending is not None:
             done = self._feed(*self._pending, why=self._breaks.before(2))

@@ -215,6 +215,10 @@ def correct_video(
                 f"{resized} frame(s) scaled to the first frame's "
                 f"{source.info.width}x{source.info.height}, as ffmpeg does; the motion "
                 "starts again there")
+        if log and source.restarts:
+            log(f"warning: the video's timestamps started over {source.restarts} time(s) "
+                "(streams joined end to end): carried on, as ffmpeg's concatenation does; "
+                "the motion starts again there")
         if log and source.damaged:
             log(f"warning: {source.damaged} frame(s) of the input were damaged (the decoder "
                 "patched over the errors); they and their corrections may show blocks")
@@ -282,7 +286,7 @@ def _stream(source: FrameSource, sink: PictureSink, corrector: Corrector, side: 
                 sink.copy_audio(item)
                 continue
             held.append(item)
-            emit(corrector.push(item.planes, item.start, item.resized))
+            emit(corrector.push(item.planes, item.start, item.joined or None))
             if source.past_end and not any(p.keep for p in held):
                 break  # the part is written: no need to read on
         else:

@@ -328,7 +328,8 @@ class Stretch:
     first, last : int
         Its first and last frame (``last`` is -1 while it goes on).
     why : str
-        What started it: ``'start'`` (the clip's), ``'cut'`` or ``'size'``
+        What started it: ``'start'`` (the clip's), ``'cut'``, or streams joined: ``'size'``
+        (another picture size) or ``'time'`` (timestamps that started over)
         (:mod:`unjello.motion.cuts`).
     evidence : dict
         The break's measurements (``similarity``, ``light``, ``tones``).

@@ -21,7 +21,7 @@ def _breaks(frames, resized=()):
     """Why the clip breaks before each frame, decided as the corrector does: one frame late."""
     b, out = Breaks(), []
     for i, f in enumerate(frames):
-        b.add(f, i in resized)
+        b.add(f, "size" if i in resized else None)
         if i:
             out.append(b.before(2))
     return out + [b.before(1)]

@@ -75,9 +75,11 @@ class Picture:
     keep : bool
         Whether it is in the part of the clip asked for (:meth:`FrameSource.items`);
         False for a frame read around it, for its motion only.
-    resized : bool
-        The video changed its picture size at this frame (every frame is scaled to the
-        first one's size: :attr:`FrameSource.resized`).
+    joined : str
+        Where two streams were joined before this frame: ``'size'`` (the picture size
+        changed; every frame is scaled to the first one's: :attr:`FrameSource.resized`),
+        ``'time'`` (the timestamps started over; they are carried on:
+        :attr:`FrameSource.restarts`), else ``''``.
     """
 
     planes: list[np.ndarray]
@@ -85,7 +87,46 @@ class Picture:
     pts: int | None = None
     name: str | None = None
     keep: bool = True
-    resized: bool = False
+    joined: str = ""
+
+
+class _Onward:
+    """Timestamps carried on where a stream starts over (two streams joined end to end).
+
+    Where a timestamp is not past the last one, it and every later one are moved on to
+    follow the last by its usual step, as ffmpeg's concatenation does: the output's
+    timestamps keep increasing, and the motion's times too.
+    """
+
+    def __init__(self) -> None:
+        self.offset = 0
+        self._last: int | None = None
+        self._step = 1
+
+    def carry(self, pts: int | None) -> tuple[int | None, bool]:
+        """Return ``pts`` carried on, and whether the stream started over there."""
+        if pts is None:
+            return None, False
+        pts += self.offset
+        restarted = self._last is not None and pts <= self._last
+        if restarted:
+            self.offset += self._last + self._step - pts  # type: ignore[operator]
+            pts = self._last + self._step  # type: ignore[operator]
+        elif self._last is not None:
+            self._step = pts - self._last
+        self._last = pts
+        return pts, restarted
+
+    def packet(self, packet: Any) -> None:
+        """Carry an audio packet's timestamps on (in place)."""
+        if packet.pts is None:
+            return
+        pts, _ = self.carry(packet.pts)
+        shift = pts - packet.pts  # type: ignore[operator]
+        if shift:
+            packet.pts = pts
+            if packet.dts is not None:
+                packet.dts += shift
 
 
 def _describe(img: np.ndarray) -> str:
@@ -121,6 +162,8 @@ class FrameSource:
         self.reader: VideoReader | None = None
         #: Whether :meth:`items` has passed the end of the part of the clip asked for.
         self.past_end = False
+        #: Times the video's timestamps started over (streams joined), carried on since.
+        self.restarts = 0
         if not self.pipe and self.path.is_dir():
             self._files = list_frames(self.path)
             self._first = read_image(self._files[0])
@@ -213,13 +256,17 @@ class FrameSource:
             first = self.reader.start_pts()
             self.reader.seek(first + int(window.seek_to / tb))
         n = 0
+        video, sound = _Onward(), _Onward()
         for kind, item, pts in self.reader.packets():
             if kind == "audio":
                 if window is None:
+                    sound.packet(item)
                     yield item
                 else:
                     yield from window.audio(item)
                 continue
+            pts, restarted = video.carry(pts)
+            self.restarts += restarted
             if first is None and pts is not None:
                 first = pts
             if window is not None and first is not None:
@@ -227,9 +274,9 @@ class FrameSource:
             known = pts is not None and first is not None
             start = (pts - first) * tb * rate if known else float(n)  # type: ignore[operator]
             n += 1
-            changed = self.reader.size_changed
+            joined = "size" if self.reader.size_changed else "time" if restarted else ""
             if window is None:
-                yield Picture(item, start, pts=pts, resized=changed)  # type: ignore[arg-type]
+                yield Picture(item, start, pts=pts, joined=joined)  # type: ignore[arg-type]
                 continue
             inside = window.keep(start / rate)
             if inside is None:
@@ -238,7 +285,7 @@ class FrameSource:
             shifted = (pts - first - round(window.offset / tb)  # type: ignore[operator]
                        if inside and known else pts)
             yield Picture(item, start, pts=shifted, keep=inside,  # type: ignore[arg-type]
-                          resized=changed)
+                          joined=joined)
             if inside:
                 yield from window.audio(None)  # what waited for the first picture's time
         if window is not None and (n or first is not None):

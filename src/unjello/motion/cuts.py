@@ -19,8 +19,9 @@ small grey copies:
 * **not a flash**: a frame lit by a flash keeps its motion (the flow matches patches
   by their shape, not their level): broken off, it came out uncorrected, and the
   matrix's flashes lost 0.01-0.17x (``docs/matrix.md``);
-* **a size change**: said by the reader (the frames are scaled to the first size first,
-  as ffmpeg scales them to its output's size).
+* **streams joined**: said by the reader, where the picture size changes (the frames are
+  scaled to the first size first, as ffmpeg scales them to its output's size) or the
+  timestamps start over (carried on, as ffmpeg's concatenation does).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ FLAT = 3.0
 #: A pair whose copies' tiles match below this (:func:`similarity`), whose tones differ
 #: by more than ``TONES`` (:func:`tones`), and that the shift of the pair before or after
 #: does not explain either (their tiles match below ``SIMILAR`` at it), is a cut. On the
-#: simulated matrix (``benchmarks/matrix.py``: 122 clips, 13 cuts) and six pans of
+#: simulated matrix (``benchmarks/matrix.py``: 126 clips, 13 cuts) and six pans of
 #: 25-50 % of the width a frame past near poles: the cuts match 0.26-0.56, tones
 #: 0.20-0.86, at the pace around 0.46 at most; of the other pairs 6 match under 0.6, 3 of
 #: them with tones over 0.15 (a pan of 40-50 % past poles), all three at the pace around
@@ -149,17 +150,20 @@ class Breaks:
     """
 
     def __init__(self) -> None:
-        # The last three frames: (grey copy, mean, resized, shift from the frame before).
-        self._frames: deque[tuple[np.ndarray, float, bool, np.ndarray | None]] = deque(
+        # The last three frames: (grey copy, mean, joined, shift from the frame before).
+        self._frames: deque[tuple[np.ndarray, float, str | None, np.ndarray | None]] = deque(
             maxlen=3)
         self.evidence: dict[str, float] = {}
 
-    def add(self, luma: np.ndarray, resized: bool = False) -> None:
-        """Add the next frame's grey levels (0-255); ``resized``: scaled by the reader."""
+    def add(self, luma: np.ndarray, joined: str | None = None) -> None:
+        """Add the next frame's grey levels (0-255).
+
+        ``joined``: the reader found two streams joined before it (``'size'``, ``'time'``).
+        """
         small = _thumb(luma)
         prev = self._frames[-1][0] if self._frames else None
         d = shift(prev, small) if prev is not None and prev.shape == small.shape else None
-        self._frames.append((small, float(small.mean()), resized, d))
+        self._frames.append((small, float(small.mean()), joined, d))
 
     def before(self, back: int) -> str | None:
         """Return why the clip breaks before the frame added ``back`` frames ago, or None.
@@ -169,16 +173,17 @@ class Breaks:
         Returns
         -------
         str or None
-            ``'size'``, ``'cut'``, or None where the stretch goes on.
+            ``'size'`` or ``'time'`` (streams joined), ``'cut'``, or None where the
+            stretch goes on.
         """
         self.evidence = {}
         frames = list(self._frames)
         k = len(frames) - back  # the frame whose start is decided
         if k <= 0:
             return None
-        (a, ma, _, _), (b, mb, resized, d) = frames[k - 1], frames[k]
-        if resized:
-            return "size"
+        (a, ma, _, _), (b, mb, joined, d) = frames[k - 1], frames[k]
+        if joined:
+            return joined
         if max(ma, mb) < LIT or d is None:
             return None
         sim = similarity(a, b)
