@@ -334,9 +334,12 @@ class Stretch:
     evidence : dict
         The break's measurements (``similarity``, ``light``, ``tones``).
     model : str or None
-        The dense method's camera model over it: ``'smooth'`` or ``'vibration'``.
+        The dense method's camera model at its start: ``'smooth'`` or ``'vibration'``.
     choice : dict
-        What the vibration test measured (:attr:`unjello.motion.dense.DenseMethod.choice`).
+        The evidence that chose it (:attr:`unjello.motion.dense.DenseMethod.choice`).
+    models : tuple of (int, str, dict)
+        Every choice over it: from which frame, the model, the evidence (the model is
+        chosen again as the footage goes: a drone that lands, a car that stops).
     wobble : float or None
         The vibration's wobble (share of the height) where the vibration model was chosen.
     """
@@ -348,19 +351,25 @@ class Stretch:
     model: str | None = None
     choice: dict = field(default_factory=dict)
     wobble: float | None = None
+    models: tuple = ()
 
     def ended(self, last: int, method: object) -> Stretch:
-        """Return it ended at frame ``last``, with the model ``method`` took over it."""
+        """Return it ended at frame ``last``, with the models ``method`` took over it."""
+        models = tuple((self.first + k, name, dict(choice))
+                       for k, name, choice in getattr(method, "decisions", ()))
         vibrating = getattr(method, "vibrating", None)
-        model = None if vibrating is None else ("vibration" if vibrating else "smooth")
+        model = models[0][1] if models else (
+            None if vibrating is None else "vibration" if vibrating else "smooth")
         return Stretch(self.first, self.why, self.evidence, last, model,
                        dict(getattr(method, "choice", {}) or {}),
-                       getattr(method, "wobble", None))
+                       getattr(method, "wobble", None), models)
 
     def as_json(self) -> dict:
         """Return it as ``correct --json`` gives it."""
         return {"first": self.first, "last": self.last, "why": self.why,
-                "evidence": self.evidence, "model": self.model, "choice": self.choice}
+                "evidence": self.evidence, "model": self.model, "choice": self.choice,
+                "models": [{"from": k, "model": name, "choice": choice}
+                           for k, name, choice in self.models]}
 
 
 @dataclass

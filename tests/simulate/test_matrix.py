@@ -59,3 +59,14 @@ def test_the_slice_holds(kind):
     assert np.median([r["ratio"] for r in rows]) <= TARGETS[kind], rows
     if kind in ("pan", "shake", "walk", "still", "cut", "fade", "flash"):
         assert not any(r["vibration"] for r in rows), rows
+
+
+def test_a_drone_that_takes_off_switches_to_the_vibration_model():
+    # Still for 30 frames, then vibrating: the first choice is the smooth model, a later
+    # one on the pairs since switches to the vibration model, and the clip gains by it.
+    case = next(c for c in cases() if c.name == "jello/takes-off")
+    row = score(case, _correct)
+    models = [(m["model"], m["choice"]["pairs"]) for s in row["stretches"]
+              for m in s["models"]]
+    assert [m for m, _ in models] == ["smooth", "vibration"], row["stretches"]
+    assert row["ratio"] < 0.2, row

@@ -44,7 +44,7 @@ FLAT = 3.0
 #: A pair whose copies' tiles match below this (:func:`similarity`), whose tones differ
 #: by more than ``TONES`` (:func:`tones`), and that the shift of the pair before or after
 #: does not explain either (their tiles match below ``SIMILAR`` at it), is a cut. On the
-#: simulated matrix (``benchmarks/matrix.py``: 126 clips, 13 cuts) and six pans of
+#: simulated matrix (``benchmarks/matrix.py``: 128 clips, 13 cuts) and six pans of
 #: 25-50 % of the width a frame past near poles: the cuts match 0.26-0.56, tones
 #: 0.20-0.86, at the pace around 0.46 at most; of the other pairs 6 match under 0.6, 3 of
 #: them with tones over 0.15 (a pan of 40-50 % past poles), all three at the pace around

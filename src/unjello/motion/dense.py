@@ -52,6 +52,7 @@ from ..kernels_field import lands_inside
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion
 from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory, solve_reweighted
+from .dense_choice import ModelChoice
 from .dense_config import DenseConfig
 from .dense_safety import FOLD_WARNING, DenseFrame, SafeField
 from .field import (
@@ -77,7 +78,6 @@ from .vibration import (
     PROBE_CONTRAST,
     PROBE_WAIT,
     VIBRATION,
-    choose_model,
     probe_pair,
     sinusoid_pursuit,
     textured,
@@ -115,7 +115,7 @@ def _translation(flow: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return median_along(sub, 0).astype(np.float64)
 
 
-class DenseMethod(SafeField):
+class DenseMethod(SafeField, ModelChoice):
     """Streaming dense method: returns each frame's motion ``window`` frames later.
 
     Parameters
@@ -144,7 +144,10 @@ class DenseMethod(SafeField):
         self._equations: deque[tuple[int, tuple]] = deque()  # (frame, its pair's rows)
         if config.vibration == "on":
             self.config = config.vibrating()
-        self._decided = config.vibration != "auto"
+        self._auto, self._base = config.vibration == "auto", config
+        self._decided = not self._auto
+        #: The camera model from a frame on, and the evidence: ``(frame, model, choice)``.
+        self.decisions: list[tuple[int, str, dict[str, float]]] = []
         self._halves: list[tuple] = []  # probed pairs: their starts, left and right rows
         self._note = ""  # added to every frame's note once vibration is detected
         #: The wobble (share of the height) for which vibration was detected, else None.
@@ -250,7 +253,7 @@ class DenseMethod(SafeField):
             else:
                 cur.bwd, cur.bwd_ok = job
             self._equations.append((cur.index, self._row_equations(prev, cur)))
-            if not self._decided and min(prev.contrast, cur.contrast) >= PROBE_CONTRAST:
+            if self._auto and min(prev.contrast, cur.contrast) >= PROBE_CONTRAST:
                 # Rows of each half, for the vibration test (frames too flat to give
                 # flow, as in a fade from black, would wobble with their noise), of
                 # two-dimensional texture only (:func:`textured`).
@@ -325,49 +328,6 @@ class DenseMethod(SafeField):
             lo = max(1, hi - span + 1)
         return lo, hi
 
-    def _decide(self) -> None:
-        """Switch to :data:`VIBRATION` where the probed pairs choose it (:func:`choose_model`)."""
-        self._decided = True
-        halves, self._halves = self._halves, []
-        self.choice = {"pairs": len(halves)}
-        if not self._frames or len(halves) < self.config.probe:  # (too short to gain)
-            return
-        step = max(self.timing.readout / self.config.grid, 1.0 / 256)
-        vibrating, self.choice = choose_model(halves, self._frames[0].image.shape[0],
-                                              self.timing.readout, step, self.config.smoothness)
-        if vibrating:
-            self.config, self.wobble = self.config.vibrating(), self.choice["wobble"]
-            self._note = (f"vibration detected (wobble {100 * self.wobble:.2f}% of the "
-                          "height): one-second window")
-            self._remeasure()
-
-    def _remeasure(self) -> None:
-        """Measure the probed pairs' polished flows again, at the vibration's full detail.
-
-        Under a vibration model the polished flows of the probe cost the simulated drone
-        jello 0.06x (0.644x -> 0.704x of the uncorrected error; ``docs/measurements.md``);
-        the frames are all still held while the probe decides, so their flows are measured
-        again (once per vibrating clip), and the pairs already started too: every pair
-        measured with other settings than the vibration's (whatever the polish).
-        """
-        if not self.config.per_pixel:
-            return
-        full = self._flow_settings
-        held = list(self._frames)
-        redo = [(prev, cur) for prev, cur in zip(held, held[1:], strict=False)
-                if cur.bwd is not None and cur.settings not in (None, full)]
-        jobs = [self._measure(prev, cur) for prev, cur in redo]
-        for (prev, cur), job in zip(redo, jobs, strict=True):
-            job = job.result() if isinstance(job, Future) else job
-            self._keep_flows(prev, cur, job)
-            cur.bwd, cur.bwd_ok, prev.fwd, prev.fwd_ok = job
-        again = {cur.index: (prev, cur) for prev, cur in redo}
-        self._equations = deque((i, self._row_equations(*again[i]) if i in again else eq)
-                                for i, eq in self._equations)
-        self._pending = deque((prev, cur, self._measure(prev, cur)
-                               if cur.settings not in (None, full) else job)
-                              for prev, cur, job in self._pending)
-
     def _ready(self, final: bool) -> list[FrameMotion]:
         out: list[FrameMotion] = []
         if not self._decided:
@@ -375,6 +335,8 @@ class DenseMethod(SafeField):
             if not final and not probed and self._measured - 1 < PROBE_WAIT * self.config.probe:
                 return out
             self._decide()
+        elif self._auto and not self.vibrating and len(self._halves) >= self.config.probe:
+            self._decide()  # again, on the pairs since: a drone that takes off
         while self._next_out < self._measured and (
                 final or self._measured - 1 >= self._pairs(self._next_out, False)[1]):
             n = self._next_out

@@ -69,7 +69,8 @@ class Case:
     speed : float
         Pans: share of the width a frame; ``object``: the object's own speed, likewise.
     jello : tuple
-        ``(across, updown, drift)``: (Hz, px at 640 wide) pairs each way, px/s of drift.
+        ``(across, updown, drift[, during])``: (Hz, px at 640 wide) pairs each way, px/s
+        of drift, the frame times it vibrates in (default throughout).
     then : Case, optional
         For a cut: the clip that follows (its own motion, scene and length).
     effect : str
@@ -192,9 +193,10 @@ def _motion(case: Case) -> Callable[[np.ndarray], np.ndarray]:
     if case.motion == "walk":
         return Motion("walk", fps, speed=v, amplitude=scale)
     if case.motion == "jello":
-        across, updown, drift = case.jello
+        across, updown, drift, *during = case.jello
         return Vibration(tuple((f, a * scale) for f, a in across),
-                         tuple((f, a * scale) for f, a in updown), drift * scale, fps)
+                         tuple((f, a * scale) for f, a in updown), drift * scale, fps,
+                         *during)
     if case.motion == "still":
         return Motion("pan", fps, speed=0.0)
     raise ValueError(f"unknown motion {case.motion!r}")
@@ -449,6 +451,11 @@ def cases() -> list[Case]:
             base = firsts[int(rng.integers(len(firsts)))]
             out.append(dataclasses.replace(base, name=f"{effect}/{base.motion}/{k}",
                                            kind=effect, effect=effect, frames=14))
+    # A drone that lands (vibrating for 30 frames, then not) and one that takes off.
+    out += [Case(f"jello/{name}", "jello", "jello", "photo", readout=0.9, frames=60,
+                 image="coffee", jello=(((38.0, 2.0), (24.0, 1.0)), ((31.0, 1.5),), 40.0,
+                                        during))
+            for name, during in (("lands", (-1e9, 30.0)), ("takes-off", (30.0, 1e9)))]
     # A photo as high as the frame crossing a still background (640 x 360, readout 1.0).
     out += [Case(f"still/tall/{image}-{px}px", "still", "still", "tall", image=image,
                  speed=px / 640, size=(640, 360), frames=12, crf=18, noise=1.0)

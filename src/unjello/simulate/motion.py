@@ -144,6 +144,9 @@ class Vibration:
         Pan along x, px per second.
     fps : float
         Frame rate, to turn Hz and seconds into frame intervals.
+    during : tuple of float
+        The frame times the mount vibrates in (a drone that lands, or takes off);
+        it drifts throughout.
 
     Examples
     --------
@@ -156,15 +159,18 @@ class Vibration:
     updown: tuple[tuple[float, float], ...] = ()
     drift: float = 0.0
     fps: float = 30.0
+    during: tuple[float, float] = (-np.inf, np.inf)
 
     def __call__(self, t: np.ndarray) -> np.ndarray:
         """Return ``D(t)`` as an array of shape ``t.shape + (2,)``."""
-        sec = np.asarray(t, dtype=np.float64) / self.fps
+        t = np.asarray(t, dtype=np.float64)
+        sec = t / self.fps
+        on = ((t >= self.during[0]) & (t < self.during[1])).astype(np.float64)
         x = sum((a * np.sin(2 * np.pi * f * sec + 0.7 * k)
                  for k, (f, a) in enumerate(self.across)), np.zeros_like(sec))
         y = sum((a * np.sin(2 * np.pi * f * sec + 1.9 + 0.7 * k)
                  for k, (f, a) in enumerate(self.updown)), np.zeros_like(sec))
-        return np.stack([x + self.drift * sec, y], axis=-1)
+        return np.stack([on * x + self.drift * sec, on * y], axis=-1)
 
 
 def gyro_samples(motion: Motion, focal: float, duration: float, *, rate: float = 400.0,
