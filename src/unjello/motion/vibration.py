@@ -23,9 +23,9 @@ import numpy as np
 from .camera import SINE_RIDGE, solve_camera_trajectory
 from .flow import ROW_AGREE, row_flows
 
-__all__ = ["VIBRATION", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE", "SIGNAL",
-           "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test", "detect_vibration",
-           "choose_model", "probe_pair", "sinusoid_pursuit"]
+__all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE",
+           "SIGNAL", "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test",
+           "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit"]
 
 #: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
 #: of about one beat period, a trajectory that may bend at scanline resolution, six
@@ -34,6 +34,11 @@ __all__ = ["VIBRATION", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE"
 #: ``docs/measurements.md``).
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
                              "refinement": None, "detail": "full"}
+
+#: The highest vibration frequency the model looks for, in cycles per frame interval:
+#: 100 Hz at 24 fps. With 1.6 (48 Hz at 30 fps), 12 of the matrix's 34 jello cases
+#: vibrated faster and kept most of their jello (``docs/matrix.md``).
+MAX_CYCLES = 4.5
 
 #: The wobble test (:func:`wobble_test`): vibration makes up at least this share of the
 #: non-steady row flow that both halves of the frame share, and its wobble is at least
@@ -249,7 +254,8 @@ def choose_model(pairs: Sequence[ProbePair], height: int, readout: float, step: 
        resolution, sinusoids of free frequency), fitted to the row flows of one half of
        the frame, predicts the other half's with at most :data:`PREFER` of the error of
        the smooth model of the default settings, each way (two-fold cross-validation),
-       and the smooth model's misses at least :data:`VISIBLE` px.
+       the smooth model's misses at least :data:`VISIBLE` px, and what the vibration
+       model gains stands :data:`SIGNAL` times above the noise of the wobble test.
        Vibration moves whole rows, so a model that follows it predicts the other half;
        one that follows what one half has alone (a pole the flow followed over a flat
        sky, noise) does not.
@@ -303,12 +309,16 @@ def choose_model(pairs: Sequence[ProbePair], height: int, readout: float, step: 
               for smooth, sines in ((smoothness, 0),
                                     (VIBRATION["smoothness"], VIBRATION["sinusoids"]))]
     evidence.update(smooth_px=round(errors[0], 4), vibration_px=round(errors[1], 4))
-    return errors[1] <= PREFER * errors[0] and errors[0] >= VISIBLE, evidence
+    # What the vibration model adds stands above the halves' disagreement as the wobble
+    # must (a tilt behind poles over a flat sky: 0.05 px gained over 0.05 px of noise).
+    gain = errors[0] - errors[1] >= SIGNAL * evidence["noise"] * height
+    return errors[1] <= PREFER * errors[0] and errors[0] >= VISIBLE and gain, evidence
 
 
 def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
                      weight: np.ndarray, base: np.ndarray, count: int,
-                     max_cycles: float = 1.6, ridge: float = 0.0) -> tuple[np.ndarray, float]:
+                     max_cycles: float = MAX_CYCLES, ridge: float = 0.0
+                     ) -> tuple[np.ndarray, float]:
     """Sinusoids of a trajectory seen through its differences ``c(t_a) - c(t_b) = delta``.
 
     Orthogonal matching pursuit: ``count`` times, the frequency (0.01 to ``max_cycles``
