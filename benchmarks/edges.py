@@ -54,11 +54,11 @@ import numpy as np
 from skimage import data
 
 from unjello.metrics import displacement_error
-from unjello.motion.dense import FOLD_WARNING
+from unjello.motion.dense.method import FOLD_WARNING
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, pole_layers, simulate
 from unjello.timing import SensorTiming
-from unjello.warp import frame_maps
+from unjello.warp.warper import frame_maps
 
 #: (share of the width a frame, readout)
 SPEEDS = ((0.1, 0.4), (0.15, 1.0), (0.25, 0.4), (0.25, 1.0), (0.4, 0.7))

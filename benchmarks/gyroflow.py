@@ -2,10 +2,10 @@
 
 1. Simulated clips (``unjello.simulate``, 480x360, readout 0.9, 60 frames, a lens of
    known focal length): pans, hand shake and drone jello, corrected by the dense method
-   (camera trajectory only) and exported (:func:`unjello.gyroflow.camera_rates`). The
+   (camera trajectory only) and exported (:func:`unjello.exports.gyroflow.camera_rates`). The
    ``.gcsv`` is read back by ``telemetry_parser`` and Gyroflow's rule (``No smoothing``:
    each row turned by its rotation relative to the frame's middle row, re-implemented
-   from Gyroflow's source in :func:`unjello.gyroflow.gyroflow_displacement`) gives a
+   from Gyroflow's source in :func:`unjello.exports.gyroflow.gyroflow_displacement`) gives a
    per-row displacement. Printed: its mean difference from the dense method's own
    (px a scanline), and the error against the truth of both (a share of the uncorrected).
 2. The round trip: ``--method gyro --gyro clip.gcsv`` on the same clip against the
@@ -32,12 +32,17 @@ import numpy as np
 from skimage import data
 
 from unjello.config import CorrectionConfig
-from unjello.gyroflow import ProjectLens, camera_rates, export_project, gyroflow_displacement
+from unjello.exports.gyroflow import (
+    ProjectLens,
+    camera_rates,
+    export_project,
+    gyroflow_displacement,
+)
 from unjello.gyrolog import GyroConfig
 from unjello.io.frames import list_frames, read_image
 from unjello.io.sidecars import read_gyro
 from unjello.metrics import displacement_error
-from unjello.motion.gyro import GyroMethod
+from unjello.motion.gyro.method import GyroMethod
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming

@@ -37,7 +37,7 @@ VIBRATION = "auto"  # --vibration
 
 def correct(frames, timing, fps):
     from unjello.config import CorrectionConfig
-    from unjello.motion.dense import DenseConfig
+    from unjello.motion.dense.method import DenseConfig
     from unjello.pipeline import correct_frames
 
     config = CorrectionConfig(dense=DenseConfig(vibration=VIBRATION))

@@ -6,7 +6,7 @@
    abruptly), drone jello, a diagonal pan that stops and a constant one at rho
    0.3 ... 1.0; true vs estimated, confidence, and the median / worst error per
    motion. "unsure" marks an estimate that fell back to 1.0 for lack of evidence.
-3. Straight lines (:mod:`unjello.readout_lines`): a simulated street of buildings and
+3. Straight lines (:mod:`unjello.readout.lines`): a simulated street of buildings and
    poles (``street_scene``, its verticals upright, or leaning by 0.03 with the camera
    rolled by 0.05 rad), a constant pan, a two-frame pair and hand shake at rho
    0.3 ... 1.0 in all four scan directions: what ``estimate_readout`` says (with both
@@ -31,7 +31,7 @@ import numpy as np
 from skimage import data
 
 from unjello.io.frames import read_image
-from unjello.readout import (
+from unjello.readout.footage import (
     estimate_readout,
     estimate_readout_file,
     pool_estimates,

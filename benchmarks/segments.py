@@ -7,7 +7,7 @@ wall time and its ratio to the one-process run (the overhead of segmenting on th
 machine), frame count, pts and audio packets against the source, and the mean absolute
 difference of every frame from the one-process output (grey levels; both lossy x264, so
 this includes two encoders' different choices; with ``--crf 0`` the frames are the
-same, ``tests/test_segments.py``).
+same, ``tests/run/test_segments.py``).
 
 Usage::
 

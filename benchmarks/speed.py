@@ -43,10 +43,10 @@ import av
 import numpy as np
 from skimage import data
 
-from unjello import kernels
+from unjello._kernels import pixelwise as kernels
 from unjello.config import CorrectionConfig
 from unjello.io.video import EncodeOptions, VideoReader, VideoWriter
-from unjello.motion.dense import DenseConfig
+from unjello.motion.dense.method import DenseConfig
 from unjello.pipeline import Corrector
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
@@ -173,41 +173,42 @@ STAGES = (
                                     ("unjello.corrector", "to_top_bottom")]),
     ("where the clip breaks", [("unjello.motion.cuts.Breaks", "add"),
                                ("unjello.motion.cuts.Breaks", "before")]),
-    ("flow: DIS (and its large-motion rerun)", [("unjello.motion.flow", "optical_flow")]),
-    ("flow: inverse", [("unjello.motion.flow", "invert_flow")]),
-    ("flow: consistency", [("unjello.motion.flow", "consistent")]),
-    ("row summaries", [("unjello.motion.dense", "row_flows"),
-                       ("unjello.motion.vibration", "probe_pair")]),
-    ("trajectory solve", [("unjello.motion.dense", "solve_camera_trajectory")]),
-    ("per-pixel: snap to global", [("unjello.motion.dense", "snap_to_global")]),
-    ("per-pixel: residual", [("unjello.motion.dense.DenseMethod", "_residual")]),
-    ("per-pixel: fold / failed-flow checks", [("unjello.motion.dense_safety", "fold_share"),
-                                              ("unjello.motion.dense_safety", "failed_blobs"),
-                                              ("unjello.motion.dense_safety", "keep_whole"),
-                                              ("unjello.motion.dense_safety.SafeField",
+    ("flow: DIS (and its large-motion rerun)", [("unjello.motion.flow.dis", "optical_flow")]),
+    ("flow: inverse", [("unjello.motion.flow.dis", "invert_flow")]),
+    ("flow: consistency", [("unjello.motion.flow.dis", "consistent")]),
+    ("row summaries", [("unjello.motion.dense.method", "row_flows"),
+                       ("unjello.motion.dense.vibration", "probe_pair")]),
+    ("trajectory solve", [("unjello.motion.dense.method", "solve_camera_trajectory")]),
+    ("per-pixel: snap to global", [("unjello.motion.dense.method", "snap_to_global")]),
+    ("per-pixel: residual", [("unjello.motion.dense.method.DenseMethod", "_residual")]),
+    ("per-pixel: fold / failed-flow checks", [("unjello.motion.dense.safety", "fold_share"),
+                                              ("unjello.motion.dense.safety", "failed_blobs"),
+                                              ("unjello.motion.dense.safety", "keep_whole"),
+                                              ("unjello.motion.dense.safety.SafeField",
                                                "_missed"),
-                                              ("unjello.motion.dense_safety.SafeField",
+                                              ("unjello.motion.dense.safety.SafeField",
                                                "_changing"),
-                                              ("unjello.motion.dense_safety.SafeField",
+                                              ("unjello.motion.dense.safety.SafeField",
                                                "_turn_back_spinning")]),
-    ("motion: the rest (working copy, field)", [("unjello.motion.dense.DenseMethod", "push"),
-                                                ("unjello.motion.dense.DenseMethod",
+    ("motion: the rest (working copy, field)", [("unjello.motion.dense.method.DenseMethod", "push"),
+                                                ("unjello.motion.dense.method.DenseMethod",
                                                  "flush")]),
-    ("backward map (fixed point, working grid)", [("unjello.warp", "field_maps")]),
-    ("map upsampling (per plane size)", [("unjello.warp", "resize_maps"),
-                                         ("unjello.map_bands.PlaneMaps", "__init__"),
-                                         ("unjello.map_bands.PlaneMaps", "band")]),
-    ("remap (every plane)", [("unjello.warp", "apply_maps"), ("unjello.warp", "warp_bands")]),
-    ("fill from neighbours", [("unjello.neighbour_fill", "neighbour_sources"),
-                              ("unjello.neighbour_fill", "fill_from_neighbours"),
-                              ("unjello.neighbour_fill", "uncovered"),
-                              ("unjello.neighbour_fill", "confirmed"),
-                              ("unjello.neighbour_fill", "uncovered_sources"),
-                              ("unjello.neighbour_fill", "edge_objects"),
-                              ("unjello.neighbour_fill", "settled_objects"),
-                              ("unjello.neighbour_fill", "objects_beyond")]),
-    ("per-scanline maps", [("unjello.warp", "remap_maps")]),
-    ("warp: the rest", [("unjello.warp.PictureWarper", "__call__")]),
+    ("backward map (fixed point, working grid)", [("unjello.warp.warper", "field_maps")]),
+    ("map upsampling (per plane size)", [("unjello.warp.warper", "resize_maps"),
+                                         ("unjello.warp.bands.PlaneMaps", "__init__"),
+                                         ("unjello.warp.bands.PlaneMaps", "band")]),
+    ("remap (every plane)", [("unjello.warp.warper", "apply_maps"),
+                             ("unjello.warp.warper", "warp_bands")]),
+    ("fill from neighbours", [("unjello.warp.fill.planes", "neighbour_sources"),
+                              ("unjello.warp.fill.planes", "fill_from_neighbours"),
+                              ("unjello.warp.fill.planes", "uncovered"),
+                              ("unjello.warp.fill.planes", "confirmed"),
+                              ("unjello.warp.fill.planes", "uncovered_sources"),
+                              ("unjello.warp.fill.planes", "edge_objects"),
+                              ("unjello.warp.fill.planes", "settled_objects"),
+                              ("unjello.warp.fill.planes", "objects_beyond")]),
+    ("per-scanline maps", [("unjello.warp.warper", "remap_maps")]),
+    ("warp: the rest", [("unjello.warp.warper.PictureWarper", "__call__")]),
 )
 
 

@@ -23,7 +23,7 @@ from skimage import data
 from unjello.config import CorrectionConfig
 from unjello.io.roundtrip import h264_roundtrip
 from unjello.metrics import displacement_error, psnr
-from unjello.motion.dense import DenseConfig
+from unjello.motion.dense.method import DenseConfig
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 from click.testing import CliRunner
 
-from unjello.cli import cli
+from unjello.cli.commands import cli
 
 
 def run(*args):

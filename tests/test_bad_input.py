@@ -147,7 +147,7 @@ def test_video_with_zero_frames(tmp_path):
 # Python keeps an ignored SIGINT ignored, so a plain `python -m unjello` child of such a run
 # never sees the signal (issue 40: it finished with exit code 0).
 _WITH_CTRL_C = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
-                "from unjello.cli import main; main(sys.argv[1:])")
+                "from unjello.cli.commands import main; main(sys.argv[1:])")
 
 
 @pytest.mark.parametrize("sig, code, said", [("SIGINT", 130, "interrupted"),

@@ -10,7 +10,7 @@ import pytest
 from unjello.clip import resolve_timing
 from unjello.config import OPTIONS, PRESETS, CorrectionConfig
 from unjello.errors import SettingsError
-from unjello.readout import MOTION_SIGMA, ReadoutEstimate
+from unjello.readout.footage import MOTION_SIGMA, ReadoutEstimate
 from unjello.timing import Milliseconds, SensorTiming
 
 

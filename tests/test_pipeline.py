@@ -1,7 +1,7 @@
 """End to end on simulated clips, both methods: the error must drop by the stated factors.
 
-The dense and paper methods' own quality tests: tests/motion/test_dense_quality.py,
-tests/motion/test_paper_quality.py.
+The dense and paper methods' own quality tests: tests/motion/dense/test_quality.py,
+tests/motion/paper/test_quality.py.
 """
 
 import numpy as np

@@ -8,7 +8,7 @@ import pytest
 
 from unjello.config import CorrectionConfig
 from unjello.errors import SettingsError
-from unjello.exports import backward_maps
+from unjello.exports.outputs import backward_maps
 from unjello.io.frames import write_image
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
@@ -22,7 +22,7 @@ from unjello.stabilize import (
 )
 from unjello.timing import SensorTiming, pixel_grid
 from unjello.trajectory import FrameMotion, Reframe, Trajectory
-from unjello.warp import apply_maps, reframe_maps
+from unjello.warp.warper import apply_maps, reframe_maps
 
 from .runner import clean_failure, run
 
@@ -196,7 +196,7 @@ def test_cli(tmp_path, shaky):
 
 
 def test_plot_shows_the_camera_path_and_the_smoothed_one(stabilised, tmp_path):
-    from unjello.exports import plot_trajectory
+    from unjello.exports.outputs import plot_trajectory
     from unjello.io.frames import read_image
 
     _, traj = stabilised

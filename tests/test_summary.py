@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from unjello.batch import run_job
 from unjello.config import CorrectionConfig
+from unjello.run.batch import run_job
 from unjello.summary import summarize
 from unjello.timing import SensorTiming
 from unjello.trajectory import FrameMotion, Reframe, Trajectory

@@ -14,7 +14,7 @@ import os
 def run() -> None:
     """Run the command line with one BLAS thread (unless the user chose otherwise)."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from .cli import main
+    from .cli.commands import main
 
     main()
 

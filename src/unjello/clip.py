@@ -1,7 +1,7 @@
 """A clip's settings, decided once: its timing, its lens and its gyro.
 
 :func:`resolve_clip` is what :func:`unjello.pipeline.correct_video` and the segmented
-run (:mod:`unjello.segments`) both call before any frame is corrected: the readout,
+run (:mod:`unjello.run.segments`) both call before any frame is corrected: the readout,
 direction, reference and frame rate (:func:`resolve_timing`, with the
 camera the file names and the estimate from its motion), the lens a profile or the camera
 database knows, and the gyro log with what is known of it.
@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 
-from .cameras import CameraMatch, match
 from .config import FOLDER_FPS, CorrectionConfig
 from .errors import SettingsError
 from .gyrolog import GyroLog
@@ -26,7 +25,8 @@ from .io.sidecars import LensProfile, find_gyro_log, gyro_source, read_lens_prof
 from .io.source import FrameSource
 from .io.telemetry import camera_of
 from .io.video import is_pipe, probe, variable_rate
-from .readout import estimate_readout_file
+from .readout.cameras import CameraMatch, match
+from .readout.footage import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
 from .trajectory import Trajectory
 
@@ -85,7 +85,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
         The timing of a motion file being applied: it wins.
     estimate : callable, optional
         ``estimate(direction, fps)`` returning a
-        :class:`~unjello.readout.ReadoutEstimate`, for ``readout="auto"`` when nothing
+        :class:`~unjello.readout.footage.ReadoutEstimate`, for ``readout="auto"`` when nothing
         states the readout.
     size : (int, int), optional
         The clip's width and height, to pick the camera's modes in the database.
@@ -100,7 +100,7 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
     -----
     The readout, in order: the settings (command line, preset); a lens profile given
     (``lens_profile``); a sidecar or the file's metadata (:func:`stated_readout`); the
-    camera database (:func:`unjello.cameras.match`) for the camera given or the one the
+    camera database (:func:`unjello.readout.cameras.match`) for the camera given or the one the
     file names; the estimate (``readout="auto"``); 1.0. The direction: the settings,
     else the database's sign of the readout, else top to bottom.
 

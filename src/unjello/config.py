@@ -31,9 +31,9 @@ from typing import Any
 from .errors import SettingsError
 from .gyrolog import GyroConfig
 from .io.video import EncodeOptions
-from .motion.dense import DenseConfig
-from .motion.dense_config import DETAILS
-from .motion.paper import PaperConfig
+from .motion.dense.config import DETAILS
+from .motion.dense.method import DenseConfig
+from .motion.paper.method import PaperConfig
 from .stabilize import StabilizeConfig, crop_request
 from .timing import (
     DIRECTIONS,
@@ -43,7 +43,7 @@ from .timing import (
     clip_time,
     readout_request,
 )
-from .warp import FILLS, WARPS
+from .warp.warper import FILLS, WARPS
 
 __all__ = ["METHODS", "PRESETS", "OPTIONS", "Option", "CorrectionConfig", "FOLDER_FPS"]
 
@@ -64,8 +64,9 @@ class CorrectionConfig:
     ----------
     method : {'dense', 'paper', 'gyro'}
         Motion estimation: per-pixel flow with a scanline-resolution camera trajectory
-        (:mod:`unjello.motion.dense`), Liang, Chang & Chen 2008 (:mod:`unjello.motion.paper`),
-        or a rotation per scanline from a gyro log (:mod:`unjello.motion.gyro`).
+        (:mod:`unjello.motion.dense.method`), Liang, Chang & Chen 2008
+        (:mod:`unjello.motion.paper.method`),
+        or a rotation per scanline from a gyro log (:mod:`unjello.motion.gyro.method`).
     readout : float, str or None
         Readout as a fraction of the frame interval, a time (``"15.7ms"``) or ``"auto"``;
         None: what a sidecar or the file states, else 1.0 (:func:`resolve_timing`).
@@ -87,7 +88,7 @@ class CorrectionConfig:
     encode : EncodeOptions
         Encoder of an output video.
     threads : int
-        Threads for the frames' flows (0: one per core; :mod:`unjello.parallel`).
+        Threads for the frames' flows (0: one per core; :mod:`unjello.run.parallel`).
     span : ClipSpan
         The part of the clip to correct (``start``, ``duration``; default all of it).
 

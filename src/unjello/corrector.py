@@ -4,7 +4,7 @@ A :class:`Corrector` takes pictures in order and gives them back corrected, a fi
 number of frames later: it decides where the clip breaks (:mod:`unjello.motion.cuts`,
 one picture late), gives each stretch a motion method of its own (the paper's, the dense
 one, the gyro's, or a given motion), stabilises if asked, and warps every plane of each
-picture by its motion (:class:`~unjello.warp.PictureWarper`). The streaming drivers in
+picture by its motion (:class:`~unjello.warp.warper.PictureWarper`). The streaming drivers in
 :mod:`unjello.pipeline`, the preview, the segments and the VapourSynth filter all use it.
 """
 
@@ -25,14 +25,14 @@ from .gyrolog import GyroLog
 from .io.sidecars import read_gyro
 from .lens import Lens
 from .motion.cuts import Breaks
-from .motion.dense import DenseMethod
-from .motion.fallback import GyroOrDense
-from .motion.paper import PaperMethod
+from .motion.dense.method import DenseMethod
+from .motion.gyro.fallback import GyroOrDense
+from .motion.paper.method import PaperMethod
 from .motion.replay import Replay
 from .stabilize import Stabilizer, track, tracking_copy
 from .timing import SensorTiming, to_top_bottom
 from .trajectory import FrameMotion, Stretch, Trajectory
-from .warp import PictureWarper
+from .warp.warper import PictureWarper
 
 __all__ = ["Corrector"]
 
@@ -61,7 +61,7 @@ class Corrector:
 
     A *picture* is a list of planes in coded orientation; the first is the luma (or a
     colour image) and drives the motion estimate; every plane is warped by the same
-    displacement (:class:`~unjello.warp.PictureWarper`).
+    displacement (:class:`~unjello.warp.warper.PictureWarper`).
 
     Parameters
     ----------
@@ -80,17 +80,17 @@ class Corrector:
         The gyro method's samples (default: read from ``config.gyro.path``).
     flows : mutable mapping, optional
         The dense method's flows between frame pairs, kept across correctors of the same
-        frames (:class:`~unjello.motion.dense.DenseMethod`).
+        frames (:class:`~unjello.motion.dense.method.DenseMethod`).
     only : set of int, optional
         Warp only these frames (by index from the first pushed); the others come back as
         they were read, with their motion (the preview wants one frame of a window).
     gyro_fallback : bool or str
         With the gyro method, what a gyro that does not fit the picture leads to
-        (:class:`~unjello.motion.fallback.GyroOrDense`): False, an error; True, the
+        (:class:`~unjello.motion.gyro.fallback.GyroOrDense`): False, an error; True, the
         dense method; a string, the dense method even if it fits (the reason).
     executor : concurrent.futures.Executor, optional
         Threads that measure the next frames' flows meanwhile
-        (:func:`unjello.parallel.frame_threads`); the result is the same.
+        (:func:`unjello.run.parallel.frame_threads`); the result is the same.
     workers : int
         The executor's threads (that many frame pairs are measured ahead).
 

@@ -2,7 +2,7 @@
 
 A gyro log is data, like the :class:`~unjello.trajectory.Trajectory`: the readers in
 :mod:`unjello.io` make one (a CSV log, the camera's own telemetry), the gyro method in
-:mod:`unjello.motion.gyro` synchronises it with the footage (clock offset, axes, focal
+:mod:`unjello.motion.gyro.method` synchronises it with the footage (clock offset, axes, focal
 length) and turns it into a rotation per scanline. Both import it from here, so the readers
 know nothing of the algorithm (Gyroflow splits its gyro source, its synchronisation and its
 integration the same way).
@@ -101,10 +101,11 @@ class GyroConfig:
     units : {'rad', 'deg'}
         Unit of the logged rates per second.
     axes : str
-        :func:`axes_matrix` spec, or ``"auto"`` (found by :func:`unjello.motion.gyro.calibrate`).
+        :func:`axes_matrix` spec, or ``"auto"`` (found by
+        :func:`unjello.motion.gyro.method.calibrate`).
     offset : float, optional
         Time on the log's clock of the first frame's first scanline, seconds; found by
-        :func:`unjello.motion.gyro.calibrate` if not given.
+        :func:`unjello.motion.gyro.method.calibrate` if not given.
     focal : float, optional
         Focal length in pixels of the full frame; found by :func:`calibrate` if not
         given.

@@ -3,7 +3,7 @@
 One driver loop serves a video and a folder of frames alike: pictures come from a
 :class:`~unjello.io.source.FrameSource`, go through a :class:`Corrector` (a motion method
 and the per-frame warp), and leave through a :class:`~unjello.io.sink.PictureSink` and the
-:class:`~unjello.exports.SideOutputs`. The motion method lags a fixed number of frames
+:class:`~unjello.exports.outputs.SideOutputs`. The motion method lags a fixed number of frames
 behind the reader (two for the paper's method; the dense method's look-ahead, about 32
 with vibration), so that many frames are held, however long the clip.
 """
@@ -23,14 +23,14 @@ from .clip import ResolvedTiming, resolve_clip
 from .config import CorrectionConfig
 from .corrector import Corrector
 from .errors import InputError, SettingsError
-from .exports import SideOutputs
-from .gyroflow import check_project, clip_project
-from .heap import trim
+from .exports.gyroflow import check_project, clip_project
+from .exports.outputs import SideOutputs
 from .io.codecs import check_output
 from .io.sink import PictureSink, check_new, check_paths
 from .io.source import FrameSource, Picture
 from .io.video import VIDEO_SUFFIXES, is_pipe
-from .parallel import cores, frame_threads
+from .run.heap import trim
+from .run.parallel import cores, frame_threads
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Trajectory
 
@@ -141,10 +141,10 @@ def correct_video(
     preview : path-like, optional
         Also write a side-by-side video: input left, corrected right.
     stmap : path-like, optional
-        Folder receiving one 16-bit STMap PNG per frame (see :mod:`unjello.exports`).
+        Folder receiving one 16-bit STMap PNG per frame (see :mod:`unjello.exports.outputs`).
     gyroflow_out : path-like, optional
         Also write a Gyroflow project of the clip, ``NAME.gyroflow``, with its log
-        ``NAME.gcsv`` (:func:`unjello.gyroflow.clip_project`), for the editors' plugins.
+        ``NAME.gcsv`` (:func:`unjello.exports.gyroflow.clip_project`), for the editors' plugins.
     progress : callable, optional
         Called as ``progress(done, total)`` after each frame (``total`` may be 0).
     log : callable, optional

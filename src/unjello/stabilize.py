@@ -9,7 +9,7 @@ agree, from the integral of the frames' scanline velocity (:func:`reference_step
 same integral as eq. 26). It smooths the path and gives each frame a :class:`Reframe` --
 a shift and a turn that move the content to the smooth path and a zoom about the centre
 that keeps the borders filled. The warper composes it with the correction's backward
-map, so the picture is resampled once (:func:`unjello.warp.reframe_maps`).
+map, so the picture is resampled once (:func:`unjello.warp.warper.reframe_maps`).
 
 The smooth path
 ---------------
@@ -44,7 +44,7 @@ import numpy as np
 from scipy import linalg
 
 from .errors import SettingsError
-from .motion.camera import ROBUST_KNEE, second_difference_band
+from .motion.dense.camera import ROBUST_KNEE, second_difference_band
 from .timing import SensorTiming
 from .trajectory import FrameMotion, Reframe
 
@@ -280,9 +280,9 @@ def smooth_path(path: np.ndarray, stiffness: float, rounds: int = 3) -> np.ndarr
 
     Minimises ``sum |S - P|^2 + stiffness sum r_k |S_{k+1} - 2 S_k + S_{k-1}|^2`` (a
     penalty on the path's acceleration, as the trajectory solve's,
-    :func:`unjello.motion.camera.solve_camera_trajectory`), with ``rounds`` of
+    :func:`unjello.motion.dense.camera.solve_camera_trajectory`), with ``rounds`` of
     reweighting that make an acceleration beyond
-    :data:`~unjello.motion.camera.ROBUST_KNEE` times the median cost its size rather
+    :data:`~unjello.motion.dense.camera.ROBUST_KNEE` times the median cost its size rather
     than its square: a pan that starts or stops turns the path sharply, where a
     low-pass filter would lag it by a whole window (and need a large crop), while the
     shake, many small accelerations, is smoothed away. Its ends are free: the path goes
@@ -428,7 +428,7 @@ class Stabilizer:
             steps are the scanline velocity's integral and the roll is not stabilised).
         poses : dict, optional
             Frame index ``k`` -> the picture's position and roll at its reference time by
-            a gyro (:meth:`unjello.motion.gyro.GyroMethod.pose`). Where two consecutive
+            a gyro (:meth:`unjello.motion.gyro.method.GyroMethod.pose`). Where two consecutive
             frames have one, their difference is the step, and the roll is smoothed
             however little it wobbles (a gyro's roll is not the tracker's noise).
         """

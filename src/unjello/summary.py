@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .motion.dense import FOLD_WARNING
+from .motion.dense.method import FOLD_WARNING
 from .trajectory import Trajectory
 
 __all__ = ["RunSummary", "summarize", "UNSEEN_NOTE"]
@@ -41,7 +41,7 @@ class RunSummary:
         per-pixel motion folded or tore it.
     folded : tuple of (int, float)
         Frames whose correction still folds or tears more than
-        :data:`~unjello.motion.dense.FOLD_WARNING` of the picture.
+        :data:`~unjello.motion.dense.method.FOLD_WARNING` of the picture.
     spun : tuple of int
         Frames with objects the flow failed on given a fitted rigid motion (spinning
         objects turned back by a rotation, near ones carried by a velocity of their own).

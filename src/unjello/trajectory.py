@@ -117,19 +117,21 @@ class FrameMotion:
         neighbour saw it), as opposed to flow that failed its check.
     kept : float
         Dense methods: fraction of pixels given the motion of their surroundings because their
-        per-pixel motion folded or tore the picture (:func:`unjello.motion.safety.keep_whole`).
+        per-pixel motion folded or tore the picture
+        (:func:`unjello.motion.objects.folds.keep_whole`).
     folds : float
         Dense methods: fraction of pixels in blobs where the applied correction map folds
-        or tears the picture (:func:`unjello.motion.safety.fold_share`): motion that was
+        or tears the picture (:func:`unjello.motion.objects.folds.fold_share`): motion that was
         not followed, such as a fast-spinning object.
     spun : float
         Dense methods: the share given a rigid motion fitted to an object the flow failed
-        on (:func:`unjello.motion.spin.keep_spinning`) rather than the motion around it: a
+        on (:func:`unjello.motion.objects.spinners.keep_spinning`) rather than the motion
+        around it: a
         rotation (a spinning object), or a velocity of its own (a near object passing).
     unseen : float
         Share of the output picture whose source lies beyond the frame's edge and that no
         neighbouring frame supplied (the edge repeated, or black): set by the warper
-        (:attr:`unjello.warp.PictureWarper.unseen`), 0 before warping.
+        (:attr:`unjello.warp.warper.PictureWarper.unseen`), 0 before warping.
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -141,7 +143,7 @@ class FrameMotion:
         rotation's backward displacement ``(dx, dy)`` (the output pixel ``p`` shows the
         frame's ``p + (dx, dy)``, in pixels of the full frame) and the object's weight
         (0-1) at each pixel of the frame. Where the rotated object lands, the picture
-        takes the rotation's source (:func:`unjello.warp.front_maps`): a forward
+        takes the rotation's source (:func:`unjello.warp.warper.front_maps`): a forward
         ``field`` alone cannot show a turned-back tip over the background it lands on.
     neighbours : tuple of (int, ndarray), optional
         Dense methods: the flow from this frame to the frame ``offset`` away, shape
@@ -336,7 +338,7 @@ class Stretch:
     model : str or None
         The dense method's camera model at its start: ``'smooth'`` or ``'vibration'``.
     choice : dict
-        The evidence that chose it (:attr:`unjello.motion.dense.DenseMethod.choice`).
+        The evidence that chose it (:attr:`unjello.motion.dense.method.DenseMethod.choice`).
     models : tuple of (int, str, dict)
         Every choice over it: from which frame, the model, the evidence (the model is
         chosen again as the footage goes: a drone that lands, a car that stops).

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from unjello.readout_lines import frame_segments
+from unjello.readout.lines import frame_segments
 from unjello.simulate import street_scene
 
 

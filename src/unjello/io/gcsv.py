@@ -4,7 +4,7 @@ A ``.gcsv`` starts ``GYROFLOW IMU LOG`` (or ``CAMERA IMU LOG``), then ``key,valu
 lines (``tscale``: seconds per time unit, default 0.001; ``gscale``: rad/s per rate unit,
 default 1; ``orientation``: Gyroflow's IMU axes from the columns), then a ``t,gx,gy,gz``
 line and one sample a line (telemetry-parser's ``src/gyroflow/gcsv.rs``). One written by
-:func:`unjello.gyroflow.gcsv_text` (``vendor,unjello``) also states what the gyro method
+:func:`unjello.exports.gyroflow.gcsv_text` (``vendor,unjello``) also states what the gyro method
 would otherwise calibrate: its columns are the camera's axes in the coded frame, its time
 0 is the clip's time ``unjello_start`` (s), its rates were taken through a lens of
 ``unjello_focal`` pixels, and with ``unjello_rates,steps`` each rate is the mean over the
@@ -38,7 +38,7 @@ def is_gcsv(path: str | os.PathLike) -> bool:
 
 
 def written_by_unjello(path: str | os.PathLike) -> bool:
-    """Return whether a file is a ``.gcsv`` log :mod:`unjello.gyroflow` wrote."""
+    """Return whether a file is a ``.gcsv`` log :mod:`unjello.exports.gyroflow` wrote."""
     if not is_gcsv(path):
         return False
     try:

@@ -1,6 +1,6 @@
 """Segments of one video: where its keyframes are, decoding from one, joining the parts.
 
-A long clip is corrected in segments that start at keyframes (:mod:`unjello.segments`);
+A long clip is corrected in segments that start at keyframes (:mod:`unjello.run.segments`);
 this module does their file work with PyAV: the presentation timestamps of every frame
 and which frames are keyframes (from the packets alone, nothing decoded), the frames of
 a stretch of the clip (seeking to the keyframe before it), and the join of the encoded

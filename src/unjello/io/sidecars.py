@@ -3,7 +3,7 @@
 * The readout a sidecar or the file states (:func:`stated_readout`).
 * Gyro logs: finding a clip's own (``NAME.gyro.csv``, :func:`find_gyro_log`), reading
   (:func:`read_gyro`) and writing (:func:`write_gyro`) them. The gyro method
-  (:mod:`unjello.motion.gyro`) takes the samples as arrays and touches no files.
+  (:mod:`unjello.motion.gyro.method`) takes the samples as arrays and touches no files.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ form: times in ms on the video's clock and angular rates in degrees per second, 
 camera's own axes. This module turns them into a :class:`~unjello.gyrolog.GyroLog`
 (seconds, rad/s) for the gyro method; which gyro axes are the camera's x, y and z, the
 clock offset and the focal length are still found from the footage
-(:func:`unjello.motion.gyro.calibrate`) unless they are given.
+(:func:`unjello.motion.gyro.method.calibrate`) unless they are given.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..cameras import camera_name
 from ..errors import InputError
 from ..gyrolog import GyroLog
+from ..readout.cameras import camera_name
 
 __all__ = ["EmbeddedGyro", "embedded_gyro", "telemetry_available", "camera_of",
            "vendor_call"]

@@ -5,7 +5,7 @@ decoded in memory) and corrects one frame at a time with :class:`PreviewSettings
 method runs over the few frames around it that its motion depends on, and only that
 frame is warped. The dense method's flows between frame pairs do not depend on the
 readout or the reference, so they are measured once and kept
-(:class:`~unjello.motion.dense.DenseMethod`'s ``flows``): changing the readout, the
+(:class:`~unjello.motion.dense.method.DenseMethod`'s ``flows``): changing the readout, the
 reference or the method's model re-solves the camera and warps one frame, well under a
 second at 1080p (``benchmarks/preview.py``). The result is the frame ``unjello correct``
 gives with the same settings (:meth:`PreviewSettings.command` writes that command).
@@ -38,7 +38,7 @@ from ..errors import InputError, SettingsError
 from ..io.frames import read_image, write_image
 from ..io.source import FrameSource, read_frames
 from ..pipeline import Corrector
-from ..readout import estimate_readout
+from ..readout.footage import estimate_readout
 from ..timing import DIRECTIONS, REFERENCES, Direction, Reference, SensorTiming
 from ..trajectory import FrameMotion, Trajectory
 

@@ -30,7 +30,7 @@ from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Route
 
 from ..errors import UnjelloError
-from ..exports import plot_trajectory
+from ..exports.outputs import plot_trajectory
 from .clip import PreviewClip, PreviewSettings, encode_png
 
 __all__ = ["create_app"]

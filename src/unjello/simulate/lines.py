@@ -1,6 +1,6 @@
 """A scene of straight edges: a street of buildings with windows, and poles.
 
-For the readout's line cue (:mod:`unjello.readout_lines`): its verticals are vertical in
+For the readout's line cue (:mod:`unjello.readout.lines`): its verticals are vertical in
 the world unless ``lean`` says otherwise (a shear: perspective, a leaning facade), and
 the whole picture can be rolled (a camera not held level). Textured, so the flow finds
 the motion everywhere.

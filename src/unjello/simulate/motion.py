@@ -180,7 +180,7 @@ def gyro_samples(motion: Motion, focal: float, duration: float, *, rate: float =
 
     An image shift of ``v`` px/s at focal length ``f`` px is a rotation of ``v / f``
     rad/s: about the camera's y axis for ``v_x``, about its x axis (negated) for
-    ``v_y`` -- the convention of :func:`unjello.motion.gyro.gyro_field`, under which the
+    ``v_y`` -- the convention of :func:`unjello.motion.gyro.method.gyro_field`, under which the
     log reproduces the motion for a focal length much larger than the frame.
 
     Parameters

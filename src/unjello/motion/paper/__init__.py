@@ -1,0 +1,1 @@
+"""unjello.motion.paper."""

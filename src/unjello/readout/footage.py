@@ -1,0 +1,577 @@
+"""Readout time: measured from a flicker frame, or estimated from the footage itself.
+
+From a flicker frame
+--------------------
+A light flickering at a known frequency ``f`` (an LED driven at 1 kHz, mains lighting
+at 100/120 Hz) is bright and dark in turn while the sensor reads its lines, so a frame
+shows bands that repeat every ``1/f`` seconds of readout. Their period ``P`` in lines
+gives the time per line ``1 / (f P)``, and the readout time of the ``h`` lines is
+``h / (f P)`` (:func:`readout_from_flicker`). The period is found from the row profile
+(mean over the lines' pixels, high-passed): the peak of its zero-padded spectrum, then
+a least-squares sinusoid fit; blur, noise and partial coverage change the bands'
+contrast, not their period.
+
+From the footage
+----------------
+The readout ratio ``rho`` sets when each row is imaged (``t_n + rho y / h``). Between
+two frames, row ``y``'s content moved from row ``y'`` of the previous frame, so the
+per-row flow is a difference of the camera trajectory at two times that depend on
+``rho`` (eq. 10 with ``rho``): ``c(t_a) - c(t_b) = -f``. Under the true ``rho`` all rows
+of all frame pairs are explained by one trajectory; under a wrong one the equations
+contradict each other wherever the motion changes. :func:`estimate_readout` scores
+each candidate by the cost of that fit (the per-row flows being computed once), with
+one of two trajectory models:
+
+- **smooth** (pans, stops, hand shake): a trajectory sampled finely in time with a
+  small penalty on its acceleration (regularised least squares,
+  :func:`unjello.motion.dense.camera.solve_camera_trajectory`), four frame pairs at a time.
+- **vibration** (when the rows wobble as :func:`unjello.motion.dense.vibration.vibration_level`
+  detects it): rows only sample the readout part of each frame interval, so ``rho``
+  shows only in how the trajectory continues across the blanking, and a smoothness
+  penalty prefers the candidate that stretches a fast vibration most (long readouts).
+  Here the trajectory of twelve frame pairs is a quadratic drift plus six sinusoids of
+  any frequency up to 1.6 cycles per frame interval, chosen greedily (orthogonal
+  matching pursuit on a fine frequency grid, shared by x and y): the same number of
+  parameters for every candidate (:func:`_spectral_cost`). Vibration above the frame
+  rate aliases between frames, but each frame's rows see it unaliased, so only the true
+  ``rho`` lines both up.
+
+A constant velocity gives every ``rho`` the same cost -- the skew is the same in every
+frame, so no method can tell -- and the estimate then falls back to a default with a
+low confidence.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+from ..timing import to_top_bottom
+from .lines import CONFIDENT, LineCue, confidence_of, line_readout
+
+__all__ = ["FlickerReadout", "band_period", "readout_from_flicker", "MOTION_SIGMA",
+           "ReadoutEstimate", "estimate_readout", "estimate_readout_file", "pool_estimates",
+           "estimate_clips", "readout_preset"]
+
+
+@dataclass(frozen=True)
+class FlickerReadout:
+    """Readout measured from a flicker frame.
+
+    Attributes
+    ----------
+    milliseconds : float
+        Readout time of all lines.
+    period_lines : float
+        Band period in lines.
+    lines : int
+        Number of lines of the frame.
+    contrast : float
+        Amplitude of the fitted bands relative to the profile's spread (0-1).
+    """
+
+    milliseconds: float
+    period_lines: float
+    lines: int
+    contrast: float
+
+    def ratio(self, fps: float) -> float:
+        """Readout as a fraction of the frame interval at ``fps``."""
+        return self.milliseconds * 1e-3 * fps
+
+
+def band_period(image: np.ndarray, direction: str = "top-bottom") -> tuple[float, float]:
+    """Period (in lines) of flicker bands across the lines of an image.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W[, C])
+        The frame, in coded orientation.
+    direction : str
+        Scan direction: the bands run along the lines.
+
+    Returns
+    -------
+    period : float
+        Band period in lines.
+    contrast : float
+        Fitted sinusoid amplitude over the profile's standard deviation (about 1.4 for
+        clean bands, near 0 when there are none).
+
+    Raises
+    ------
+    InputError
+        If no periodic banding is found.
+    """
+    from scipy.optimize import curve_fit  # imported on use: it is slow to import
+
+    img = to_top_bottom(np.asarray(image), direction).astype(np.float64)
+    if img.ndim == 3:
+        img = img[..., :3].mean(axis=2)
+    h = img.shape[0]
+    if h < 16:
+        raise InputError("image too small to measure flicker bands")
+    profile = img.mean(axis=1)
+    trend = cv2.GaussianBlur(profile[:, None], (1, 0), sigmaX=0, sigmaY=h / 6.0)[:, 0]
+    x = profile - trend
+    if not np.any(x):
+        raise InputError("no flicker bands: the image has no brightness variation across lines")
+    pad = 1 << int(np.ceil(np.log2(h * 32)))
+    spec = np.abs(np.fft.rfft(x * np.hanning(h), n=pad))
+    freqs = np.fft.rfftfreq(pad)  # cycles per line
+    band = (freqs >= 1.5 / h) & (freqs <= 0.5)
+    if not band.any():
+        raise InputError("image too small to measure flicker bands")
+    k = int(np.flatnonzero(band)[np.argmax(spec[band])])
+    f0 = freqs[k]
+    if 0 < k < spec.size - 1:
+        a, b, c = np.log(spec[k - 1:k + 2] + 1e-12)
+        den = a - 2 * b + c
+        if den < 0:
+            f0 = freqs[k] + 0.5 * (a - c) / den * (freqs[1] - freqs[0])
+    y = np.arange(h, dtype=np.float64)
+
+    def sine(yy: np.ndarray, amp: float, freq: float, phase: float, off: float) -> np.ndarray:
+        return amp * np.sin(2 * np.pi * freq * yy + phase) + off
+
+    ph0 = float(np.angle(np.sum(x * np.exp(-2j * np.pi * f0 * y))) + np.pi / 2)
+    try:
+        (amp, freq, _, _), _ = curve_fit(sine, y, x, p0=[x.std() * 1.4, f0, ph0, 0.0],
+                                         maxfev=5000)
+    except RuntimeError:
+        amp, freq = x.std() * 1.4, f0
+    contrast = float(abs(amp) / (x.std() + 1e-12))
+    if not (1.5 / h <= abs(freq) <= 0.5) or contrast < 0.6:
+        raise InputError("no clear flicker bands found across the lines of this image")
+    return float(1.0 / abs(freq)), contrast
+
+
+def readout_from_flicker(image: np.ndarray, frequency: float, *,
+                         direction: str = "top-bottom") -> FlickerReadout:
+    """Readout time from a frame of a light flickering at ``frequency`` Hz.
+
+    Parameters
+    ----------
+    image : ndarray of shape (H, W[, C])
+    frequency : float
+        Flicker frequency in Hz (the LED's, or twice the mains frequency).
+    direction : str
+        Scan direction of the sensor.
+
+    Returns
+    -------
+    FlickerReadout
+
+    Examples
+    --------
+    Bands every 50 lines of a 1 kHz light on 500 lines: 10 periods, 10 ms.
+
+    >>> y = np.arange(500)[:, None]
+    >>> img = np.repeat(128 + 100 * np.sign(np.sin(2 * np.pi * y / 50)), 64, axis=1)
+    >>> round(readout_from_flicker(img, 1000.0).milliseconds, 1)
+    10.0
+    """
+    if not frequency > 0:
+        raise InputError("the flicker frequency must be positive")
+    period, contrast = band_period(image, direction)
+    lines = to_top_bottom(np.asarray(image), direction).shape[0]
+    ms = lines / (frequency * period) * 1e3
+    return FlickerReadout(milliseconds=float(ms), period_lines=period, lines=lines,
+                          contrast=contrast)
+
+
+#: Weight of the trajectory's acceleration penalty when scoring a readout candidate, its
+#: reweighting rounds (an abrupt start or stop is not a smooth acceleration), and
+#: the vibration model's sinusoids and their highest frequency (cycles per frame interval:
+#: 48 Hz at 30 fps), as calibrated with ``benchmarks/readout.py`` (``docs/tuning.md``).
+_SMOOTHNESS = 1e-4
+_SINUSOIDS = 6
+_ROBUST = 3
+_MAX_CYCLES = 1.6
+
+
+def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray
+                   ) -> float:
+    """Residual of ``c(t_a) - c(t_b) = delta`` with ``c`` = quadratic drift + sinusoids.
+
+    The sinusoids (:data:`_SINUSOIDS`, up to :data:`_MAX_CYCLES` per frame interval) are
+    picked by :func:`unjello.motion.dense.method.sinusoid_pursuit`.
+
+    Examples
+    --------
+    A 31 Hz vibration at 30 fps read in 0.6 of the frame interval: the true readout
+    explains the rows best.
+
+    >>> y = np.tile(np.linspace(0, 1, 200), 8)
+    >>> def times(rho):
+    ...     t_a = np.repeat(np.arange(1.0, 9.0), 200) + rho * y
+    ...     return t_a, t_a - 1
+    >>> c = lambda t: np.stack([np.sin(2 * np.pi * 31 / 30 * t), 0 * t], axis=1)
+    >>> ta, tb = times(0.6)
+    >>> d, w = c(ta) - c(tb), np.ones(ta.size)
+    >>> costs = {rho: _spectral_cost(*times(rho), d, w) for rho in (0.4, 0.5, 0.6, 0.7, 0.8)}
+    >>> min(costs, key=costs.get)
+    0.6
+    """
+    from ..motion.dense.vibration import sinusoid_pursuit
+
+    t0 = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
+                                                              float(t_b.max())))
+    ta, tb = t_a - t0, t_b - t0
+    drift = np.stack([ta - tb, ta ** 2 - tb ** 2], axis=1)
+    return sinusoid_pursuit(ta, tb, delta, weight, drift, _SINUSOIDS, _MAX_CYCLES)[1]
+
+
+#: The vibration model's estimate needs this confidence: drone jello scores 0.81-0.95 on
+#: the simulated clips of ``benchmarks/readout.py``, hand shake over a rolled street
+#: scanned right to left, its row flows wobbling at the poles (taken for jello), 0.56-0.65
+#: with estimates of 0.10-0.18 for 0.5-1.0.
+_VIBRATION_CONFIDENCE = 0.7
+
+#: The uncertainty (one sigma, fraction of the frame interval) given to a reliable
+#: estimate from the motion: its errors on the simulated clips of
+#: ``benchmarks/readout.py`` are within 0.015 where it says it is reliable.
+MOTION_SIGMA = 0.02
+
+
+@dataclass(frozen=True)
+class ReadoutEstimate:
+    """Readout ratio estimated from footage.
+
+    Attributes
+    ----------
+    readout : float
+        The estimate (or the fallback), fraction of the frame interval.
+    confidence : float
+        0-1: for the motion cue, how much better the best candidate explains the motion
+        than the others; for the lines, :func:`~unjello.readout.lines.confidence_of` of
+        their uncertainty. 0.5 and more is reliable.
+    reliable : bool
+        False when the footage cannot tell and ``readout`` is the fallback.
+    candidates : ndarray of shape (k,)
+    costs : ndarray of shape (k,)
+        The motion fit's cost of each candidate (lower is better).
+    model : {'smooth', 'vibration'}
+        The trajectory model the candidates were scored with.
+    cue : str
+        What the estimate rests on: ``motion``, ``lines``, ``pooled`` or ``none``.
+    uncertainty : float
+        One standard deviation of the estimate (``inf`` when the footage cannot tell).
+    best_guess : float
+        The estimate even where it is not reliable (NaN with no evidence at all): what
+        :func:`pool_estimates` weighs by its uncertainty.
+    note : str
+        What the straight lines said of a motion estimate (they agree or disagree).
+    """
+
+    readout: float
+    confidence: float
+    reliable: bool
+    candidates: np.ndarray
+    costs: np.ndarray
+    model: str = "smooth"
+    cue: str = "motion"
+    uncertainty: float = float("inf")
+    best_guess: float = float("nan")
+    note: str = ""
+
+    def describe(self) -> str:
+        """One line: the readout and what it rests on, or why it is unknown."""
+        if not self.reliable:
+            why = self.note or ("neither its motion nor its straight lines change enough to "
+                                "tell (a steady pan, two frames, a still or flat view)")
+            return (f"readout unknown: {why} (confidence {self.confidence:.2f}; "
+                    f"{self.readout:g}, the whole frame interval, unless told otherwise)"
+                    if self.readout == 1.0 else
+                    f"readout unknown: {why} (confidence {self.confidence:.2f}; "
+                    f"{self.readout:g} unless told otherwise)")
+        rest = {"motion": f"{self.model} motion model", "lines": "the lean of straight lines",
+                "pooled": "clips pooled"}.get(self.cue, self.cue)
+        if self.note:
+            rest += f"; {self.note}"
+        return (f"readout {self.readout:.3f} of the frame interval "
+                f"(+-{self.uncertainty:.3f}, confidence {self.confidence:.2f}, {rest})")
+
+    def as_json(self, costs: bool = True) -> dict:
+        """Return the estimate as plain JSON types (with the candidates' costs, or without)."""
+        def num(v: float) -> float | None:
+            return float(v) if np.isfinite(v) else None
+        out = {"readout": self.readout, "confidence": self.confidence,
+               "reliable": self.reliable, "cue": self.cue, "model": self.model,
+               "uncertainty": num(self.uncertainty), "best_guess": num(self.best_guess),
+               "note": self.note}
+        if costs:
+            out.update(candidates=self.candidates.tolist(), costs=self.costs.tolist())
+        return out
+
+
+def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> ReadoutEstimate:
+    """Combine the motion cue and the lines': the motion first, the lines where it cannot tell.
+
+    Where the motion can tell, its estimate stands and the lines check it (said in the
+    note): averaged in, the lines' estimate made stops and starts over curved edges
+    worse in ``benchmarks/readout.py`` (a velocity that jumps within a frame, edges that
+    are not straight mislead them more than their scatter shows). Where it cannot, a
+    confident lines' estimate is the estimate; else the best guess of either, with its
+    uncertainty, is kept for pooling (:func:`pool_estimates`).
+    """
+    if motion.reliable:
+        note = ""
+        if lines.confident:
+            agree = abs(motion.readout - lines.readout) <= 3.0 * np.hypot(MOTION_SIGMA,
+                                                                          lines.uncertainty)
+            note = (f"the straight lines {'agree' if agree else 'disagree'}: "
+                    f"{lines.readout:.3f} (+-{lines.uncertainty:.3f})")
+        return dataclasses.replace(motion, cue="motion", uncertainty=MOTION_SIGMA,
+                                   best_guess=motion.readout, note=note)
+    if lines.confident:
+        return dataclasses.replace(
+            motion, readout=float(np.clip(lines.readout, 0.05, 1.0)),
+            confidence=confidence_of(lines.uncertainty), reliable=True, cue="lines",
+            uncertainty=lines.uncertainty, best_guess=lines.readout)
+    return dataclasses.replace(motion, readout=fallback, reliable=False, cue="none",
+                               uncertainty=lines.uncertainty, best_guess=lines.readout)
+
+
+def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
+                   ) -> ReadoutEstimate:
+    """Pool the estimates of several clips of one camera mode (its readout is fixed).
+
+    Each clip's best guess counts by its uncertainty (inverse variance). Where the
+    clips disagree more than their uncertainties allow (a reduced chi-square above 1),
+    the pooled uncertainty is widened by its square root (the Birge ratio).
+    """
+    est = [e for e in estimates if np.isfinite(e.uncertainty) and np.isfinite(e.best_guess)]
+    empty = np.zeros(0)
+    if not est:
+        return ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
+    r = np.array([e.best_guess for e in est])
+    w = np.array([1.0 / e.uncertainty ** 2 for e in est])
+    mean = float(np.sum(w * r) / w.sum())
+    sigma = float(1.0 / np.sqrt(w.sum()))
+    if len(est) > 1:
+        chi2 = float(np.sum(w * (r - mean) ** 2) / (len(est) - 1))
+        sigma *= max(1.0, np.sqrt(chi2))
+    reliable = sigma <= CONFIDENT
+    return ReadoutEstimate(float(np.clip(mean, 0.05, 1.0)) if reliable else fallback,
+                           confidence_of(sigma), bool(reliable), empty, empty,
+                           cue="pooled" if reliable else "none", uncertainty=sigma,
+                           best_guess=mean)
+
+
+def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bottom",
+                     starts: Iterable[float] | None = None, max_frames: int = 60,
+                     fallback: float = 1.0, min_confidence: float = 0.5,
+                     min_variation: float = 0.5, lines: bool = True,
+                     motion: bool = True) -> ReadoutEstimate:
+    """Estimate the readout ratio from a clip (see the module notes).
+
+    Parameters
+    ----------
+    frames : iterable of ndarray of shape (H, W[, C])
+        Consecutive frames in coded orientation (only the first ``max_frames`` are used).
+    direction : str
+        Scan direction.
+    starts : iterable of float, optional
+        Frame start times in frame intervals (default 0, 1, 2, ...).
+    max_frames : int
+        Frames to analyse.
+    fallback : float
+        Readout returned when the motion cannot tell.
+    min_confidence : float
+        Below this confidence the estimate is not reliable and ``fallback`` is returned.
+        Set between what hand shake and pan-then-stop score (0.56 and more on the
+        simulated clips of ``benchmarks/readout.py``) and what vibration near the frame
+        rate scores (0.40 and less), whose estimates are biased.
+    min_variation : float
+        Standard deviation (px) the per-row flows must show over rows and frames; less
+        is uniform motion, from which the readout cannot be told (confidence 0).
+    lines : bool
+        Also read the lean of straight lines (:func:`~unjello.readout.lines.line_readout`)
+        and combine the two cues (:func:`_combine`).
+    motion : bool
+        Use the motion model (False: the straight lines alone).
+
+    Returns
+    -------
+    ReadoutEstimate
+    """
+    from ..motion.dense.camera import solve_camera_trajectory
+    from ..motion.dense.method import DenseConfig
+    from ..motion.dense.vibration import detect_vibration
+    from ..motion.flow.dis import FlowSettings, flow_pair, half_row_flows, row_flows
+
+    grey, times = [], []
+    start_list = list(starts) if starts is not None else None
+    for i, img in enumerate(frames):
+        if i >= max_frames:
+            break
+        g = to_top_bottom(np.asarray(img), direction)
+        if g.ndim == 3:
+            g = cv2.cvtColor(g[..., :3].astype(np.float32), cv2.COLOR_RGB2GRAY)
+        grey.append(g.astype(np.float32) * (255.0 / max(float(g.max()), 1.0)
+                                            if g.dtype != np.uint8 else 1.0))
+        times.append(float(start_list[i]) if start_list is not None else float(i))
+    empty = np.zeros(0)
+    if len(grey) < 2:
+        return ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
+    h = grey[0].shape[0]
+    # Flow at DIS medium's own finest level (half resolution) on copies up to 640 px
+    # wide: the confidence threshold was calibrated with it; at full resolution
+    # pan-then-stop scored as low as 0.52. (Its flow settings are kept as calibrated.)
+    flow = FlowSettings("medium", finest_scale=1, refinement=None, consistency=10.0)
+    pairs, halves, ahead = [], [], []
+    for k in range(1, len(grey)):
+        bwd, ok, fwd, _ = flow_pair(grey[k - 1], grey[k], flow, 640, two_way=True)
+        pairs.append(row_flows(bwd, ok))
+        halves.append(half_row_flows(bwd, ok))
+        ahead.append(fwd)
+    line_cue = (line_readout(grey, np.asarray(times), ahead) if lines
+                else LineCue(float("nan"), float("inf"), "none"))
+    if len(grey) < 3 or not motion:  # two frames: no motion model, the lines alone
+        none = ReadoutEstimate(fallback, 0.0, False, empty, empty, cue="none")
+        return _combine(none, line_cue, fallback)
+    # Vibration is told as the dense method's --vibration auto tells it (as many pairs).
+    vibrating = detect_vibration(halves, h, DenseConfig().probe) is not None
+    window = 12 if vibrating else 4
+    # Uniform motion carries no information on the readout: check there is variation.
+    flows = np.concatenate([p[1] for p in pairs if p[1].size]) if any(
+        p[1].size for p in pairs) else np.zeros((0, 2))
+    variation = float(np.linalg.norm(flows.std(axis=0))) if len(flows) > 1 else 0.0
+    if vibrating:
+        # The vibration model's cost grows with the equations: about 120 rows per pair
+        # are plenty (a 1.6-cycle vibration spans at most 1.6 periods of the rows).
+        step = max(1, h // 120)
+        pairs = [(y[::step], med[::step], wgt[::step]) for y, med, wgt in pairs]
+    # The vibration model's windows overlap by half and all hold twelve pairs.
+    last = max(1, len(pairs) - window // 2) if vibrating else len(pairs)
+    candidates = np.round(np.arange(0.1, 1.0001, 0.05), 4)
+    costs = np.zeros(candidates.size)
+    for j, rho in enumerate(candidates):
+        total = 0.0
+        for k0 in range(0, last, window // 2):
+            eq = []
+            for k in range(k0, min(k0 + window, len(pairs))):
+                y, med, wgt = pairs[k]
+                if y.size == 0:
+                    continue
+                t_a = times[k + 1] + rho * y / h
+                t_b = times[k] + rho * (y + med[:, 1]) / h
+                eq.append((t_a, t_b, -med, wgt))
+            if not eq:
+                continue
+            t_a, t_b, delta, wgt = (np.concatenate([e[i] for e in eq]) for i in range(4))
+            total += _spectral_cost(t_a, t_b, delta, wgt) if vibrating else (
+                solve_camera_trajectory(t_a, t_b, None, delta, wgt, 1.0 / 32,
+                                        _SMOOTHNESS, robust=_ROBUST).cost)
+        costs[j] = total
+    best = int(np.argmin(costs))
+    rho = float(candidates[best])
+    if 0 < best < candidates.size - 1:
+        a, b, c = costs[best - 1:best + 2]
+        den = a - 2 * b + c
+        if den > 0:
+            rho = float(rho + 0.05 * 0.5 * (a - c) / den)
+    spread = float(np.median(costs) - costs[best])
+    confidence = float(np.clip(spread / (np.median(costs) + 1e-12), 0.0, 1.0))
+    if variation < min_variation:
+        confidence = 0.0
+    reliable = confidence >= (max(min_confidence, _VIBRATION_CONFIDENCE) if vibrating
+                              else min_confidence)
+    if best == 0:  # no minimum inside the candidates: the cost falls on beyond them
+        reliable = False
+    from_motion = ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
+                                  confidence, reliable, candidates, costs,
+                                  "vibration" if vibrating else "smooth",
+                                  uncertainty=MOTION_SIGMA if reliable else float("inf"),
+                                  best_guess=rho if reliable else float("nan"))
+    if vibrating:  # a wobble within the frame bends lines: their lean says nothing clear
+        line_cue = LineCue(float("nan"), float("inf"), "none")
+    return _combine(from_motion, line_cue, fallback)
+
+
+def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
+                          max_frames: int = 60, fallback: float = 1.0,
+                          fps: float | None = None) -> ReadoutEstimate:
+    """Estimate the readout ratio of a video or image folder from its motion.
+
+    Parameters
+    ----------
+    src : path-like
+        Video file or folder of frames.
+    direction : str
+        Scan direction.
+    max_frames : int
+        Frames analysed from the start.
+    fallback : float
+        Readout returned when the motion cannot tell.
+    fps : float, optional
+        The frame rate whose interval is the unit (default the video's own).
+
+    Returns
+    -------
+    ReadoutEstimate
+        See :func:`estimate_readout`.
+    """
+    from ..io.source import FrameSource
+
+    frames: list[np.ndarray] = []
+    starts: list[float] = []
+    with FrameSource(src) as source:
+        for pic in source.pictures(fps, limit=max_frames):
+            img = pic.planes[0]
+            if source.info.is_video and source.info.max_value > 255:
+                img = (img >> 2).astype(np.uint8)
+            frames.append(img)
+            starts.append(pic.start)
+    return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback,
+                            max_frames=max_frames)
+
+
+def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-bottom",
+                   max_frames: int = 60
+                   ) -> tuple[list[tuple[str, float | None, ReadoutEstimate]], ReadoutEstimate]:
+    """Estimate the readout of each clip of one camera mode, and pool them.
+
+    Returns
+    -------
+    rows : list of (path, fps, ReadoutEstimate)
+        Each clip's estimate (``fps`` None for a folder).
+    best : ReadoutEstimate
+        The clips pooled (:func:`pool_estimates`), or the one clip's estimate.
+
+    Raises
+    ------
+    SettingsError
+        Standard input (it is read twice), or clips of different frame rates (a camera
+        mode has one; the readout's fraction of a frame interval is pooled at it).
+    """
+    from ..errors import SettingsError
+    from ..io.source import FrameSource
+
+    rows = []
+    for path in paths:
+        if str(path) == "-":
+            raise SettingsError("estimating the readout reads each clip twice: give files")
+        with FrameSource(path) as source:
+            fps = source.info.fps
+        rows.append((str(path), fps, estimate_readout_file(path, direction=direction,
+                                                           max_frames=max_frames)))
+    rates = sorted({round(fps, 3) for _, fps, _ in rows if fps})
+    if len(rates) > 1:
+        raise SettingsError(f"the clips' frame rates differ ({', '.join(map(str, rates))} fps): "
+                            "pool the clips of one camera mode, at one rate")
+    best = pool_estimates(e for _, _, e in rows) if len(rows) > 1 else rows[0][2]
+    return rows, best
+
+
+def readout_preset(est: ReadoutEstimate, direction: str, fps: float | None) -> dict:
+    """Return a preset (``correct --preset FILE``) of an estimated readout: ms at a known rate."""
+    value: float | str = f"{est.readout * 1000.0 / fps:.3f}ms" if fps else round(est.readout, 4)
+    return {"readout": value, "direction": direction}
