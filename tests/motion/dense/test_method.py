@@ -111,6 +111,55 @@ def test_flows_measured_ahead_on_threads_give_the_same_motion(scene):
                 assert np.array_equal(a.field, b.field)
 
 
+def test_the_model_choice_does_not_depend_on_how_many_flows_were_done(scene):
+    """Flows an executor finishes several at a time (as on a busy machine) give the same
+    choice of camera model, from the same pairs, and the same motion, as flows measured
+    one after another: taken all at once, the choice saw 9 pairs instead of 8."""
+    from concurrent.futures import Executor, Future
+
+    from unjello.simulate import Motion, simulate
+    from unjello.timing import SensorTiming
+
+    class Late(Future):
+        done_now = False
+
+        def done(self):
+            return self.done_now
+
+    class Batches(Executor):
+        """Runs each job at once, but says it is done only once 3 are queued."""
+
+        def __init__(self):
+            self.queued = []
+
+        def submit(self, fn, /, *args, **kwargs):
+            job = Late()
+            job.set_result(fn(*args, **kwargs))
+            self.queued.append(job)
+            if len(self.queued) >= 3:
+                for j in self.queued:
+                    j.done_now = True
+                self.queued = []
+            return job
+
+    sim = list(simulate(scene, Motion("jello"), SensorTiming(1.0), 24, size=(256, 160)))
+    grey = [s.rolling.mean(axis=2).astype(np.uint8) for s in sim]
+    runs = []
+    for pool in (None, Batches()):
+        method = DenseMethod(SensorTiming(1.0), DenseConfig(), executor=pool, ahead=6)
+        out = []
+        for k, g in enumerate(grey):
+            out += method.push(g, float(k))
+        out += method.flush()
+        runs.append((out, method.decisions))
+    (plain, chosen), (batched, chosen_batched) = runs
+    assert chosen == chosen_batched and chosen[0][2]["pairs"] == DenseConfig().probe
+    assert [fm.index for fm in batched] == list(range(len(grey)))
+    for a, b in zip(plain, batched, strict=True):
+        assert np.array_equal(a.displacement, b.displacement)
+        assert np.array_equal(a.field, b.field)
+
+
 @pytest.mark.parametrize("polish", [1, 0])
 def test_a_vibrating_clip_has_its_probed_pairs_measured_again_in_full(scene, monkeypatch,
                                                                       polish):

@@ -186,8 +186,7 @@ class DenseMethod(SafeField, ModelChoice):
         else:
             self._measured = max(self._measured, cur.index + 1)  # nothing to measure
         self._frames.append(cur)
-        self._take_flows(keep=self._ahead)
-        return self._ready(final=False)
+        return self._advance(keep=self._ahead, final=False)
 
     @property
     def vibrating(self) -> bool | None:
@@ -196,8 +195,20 @@ class DenseMethod(SafeField, ModelChoice):
 
     def flush(self) -> list[FrameMotion]:
         """Return the motion of the frames still pending at the end of the clip."""
-        self._take_flows(keep=0)
-        return self._ready(final=True)
+        return self._advance(keep=0, final=True)
+
+    def _advance(self, keep: int, final: bool) -> list[FrameMotion]:
+        """Take the measured pairs one at a time, each followed by what it makes ready.
+
+        The camera model's choice and the frames emitted with it then follow from the
+        pairs alone, not from how many flows an executor had finished when asked: taken
+        several at once, the choice saw 9 pairs instead of 8 and a real clip came out
+        differently under load.
+        """
+        out: list[FrameMotion] = []
+        while self._take_flows(keep):
+            out += self._ready(final=False)
+        return out + self._ready(final)
 
     def _measure(self, prev: DenseFrame, cur: DenseFrame) -> Future | tuple:
         """Start (on the executor, if any) or look up the flows between two frames."""
@@ -230,19 +241,19 @@ class DenseMethod(SafeField, ModelChoice):
             return self.config.flow
         return dataclasses.replace(self.config, detail="full").flow
 
-    def _take_flows(self, keep: int) -> None:
-        """Take the measured flows in order: until ``keep`` are left, then those done.
+    def _take_flows(self, keep: int) -> bool:
+        """Take the next pair's flows, if more than ``keep`` are pending or they are done.
 
         Each pair's row equations are formed as its flows arrive, in the order of the
         frames, so the motion is the same whether the flows were computed ahead on an
-        executor or here, one after another.
+        executor or here, one after another. Returns whether a pair was taken.
         """
-        while self._pending:
+        if self._pending:
             prev, cur, job = self._pending[0]
             fresh = isinstance(job, Future)
             if isinstance(job, Future):  # (as ``fresh``, for the type checker)
                 if len(self._pending) <= keep and not job.done():
-                    return
+                    return False
                 job = job.result()
             self._pending.popleft()
             job = self._steady(prev, cur, job)
@@ -262,6 +273,8 @@ class DenseMethod(SafeField, ModelChoice):
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1
+            return True
+        return False
 
     def _steady(self, prev: DenseFrame, cur: DenseFrame, job: tuple) -> tuple:
         """Return a pair's flows, measured again from the last pair's pace if they lost it.
