@@ -18,7 +18,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
-	$(BIN)/python -m pytest -n auto
+	$(BIN)/python -m pytest -n auto --durations=25
 	$(MAKE) test-vapoursynth
 
 # VapourSynth's wheel needs CPython 3.12+: its filter is tested in a venv of its own,

@@ -37,7 +37,7 @@ from unjello.metrics import psnr
 from unjello.motion.flow.dis import optical_flow
 from unjello.pipeline import correct_frames
 from unjello.timing import pixel_grid
-from unjello.warp.warper import field_maps, resize_maps
+from unjello.warp.maps import field_maps, resize_maps
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "pairs"
 NAMES = ("gs_0_f", "gs_0_m", "gs_1_f", "gs_1_m", "rs_0", "rs_1")

@@ -84,7 +84,8 @@ def run(name: str) -> None:
 def run_suite() -> None:
     sys.path.insert(0, str(Path(__file__).parent))
     from synthetic import CASES as SUITE  # noqa: PLC0415 (a sibling script, not a package)
-    from synthetic import degrade
+
+    from unjello.io.roundtrip import degrade
     print(f"\n{'suite case (320x240, readout 1.0)':42} {'worst dB':>8} {'broken':>6}")
     for name, (motion, layers, exposure, bad, *rest) in SUITE.items():
         frames = next((r for r in rest if isinstance(r, int)), 12)

@@ -193,8 +193,8 @@ STAGES = (
     ("motion: the rest (working copy, field)", [("unjello.motion.dense.method.DenseMethod", "push"),
                                                 ("unjello.motion.dense.method.DenseMethod",
                                                  "flush")]),
-    ("backward map (fixed point, working grid)", [("unjello.warp.warper", "field_maps")]),
-    ("map upsampling (per plane size)", [("unjello.warp.warper", "resize_maps"),
+    ("backward map (fixed point, working grid)", [("unjello.warp.maps", "field_maps")]),
+    ("map upsampling (per plane size)", [("unjello.warp.maps", "resize_maps"),
                                          ("unjello.warp.bands.PlaneMaps", "__init__"),
                                          ("unjello.warp.bands.PlaneMaps", "band")]),
     ("remap (every plane)", [("unjello.warp.warper", "apply_maps"),
@@ -207,7 +207,8 @@ STAGES = (
                               ("unjello.warp.fill.planes", "edge_objects"),
                               ("unjello.warp.fill.planes", "settled_objects"),
                               ("unjello.warp.fill.planes", "objects_beyond")]),
-    ("per-scanline maps", [("unjello.warp.warper", "remap_maps")]),
+    ("per-scanline maps", [("unjello.warp.warper", "remap_maps"),
+                           ("unjello.warp.maps", "remap_maps")]),
     ("warp: the rest", [("unjello.warp.warper.PictureWarper", "__call__")]),
 )
 
@@ -287,7 +288,7 @@ def profile_stages(clip: Path, out: Path, frames: int,
             return done + corr.flush()
 
         # A first pass faults in the memory the stages allocate: on this machine that
-        # cost some stages three to five times their own time (docs/measurements.md), a
+        # cost some stages three to five times their own time (docs/history/measurements.md), a
         # cost a long run pays once. Its total is printed; the stages are the second's.
         t = _cpu()
         correct_all()

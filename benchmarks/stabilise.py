@@ -54,7 +54,8 @@ from skimage import data
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming, pixel_grid
 from unjello.trajectory import Trajectory
-from unjello.warp.warper import apply_maps, reframe_maps
+from unjello.warp.maps import reframe_maps
+from unjello.warp.warper import apply_maps
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 UNJELLO = [sys.executable, "-m", "unjello"]

@@ -21,8 +21,8 @@ import numpy as np
 from skimage import data
 
 from unjello.config import CorrectionConfig
-from unjello.io.roundtrip import h264_roundtrip
-from unjello.metrics import displacement_error, psnr
+from unjello.io.roundtrip import degrade
+from unjello.metrics import displacement_error, psnr, region_psnr
 from unjello.motion.dense.method import DenseConfig
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
@@ -70,19 +70,6 @@ CASES = {
 
 METHODS = {"paper": CorrectionConfig(method="paper"), "dense": CorrectionConfig(),
            "vibration": CorrectionConfig(dense=DenseConfig(vibration="on"))}
-
-
-def degrade(frames: list[np.ndarray], seed: int = 0) -> list[np.ndarray]:
-    """Add sensor noise, then encode with libx264 CRF 26 and decode again."""
-    rng = np.random.default_rng(seed)
-    noisy = [np.clip(f + rng.normal(0, 3.0, f.shape), 0, 255).astype(np.uint8) for f in frames]
-    return h264_roundtrip(noisy, 26)
-
-
-def region_psnr(image: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:
-    """PSNR (dB, 8-bit) over the pixels of ``mask``."""
-    err = (np.asarray(image, np.float64) - np.asarray(truth, np.float64))[mask]
-    return float(10 * np.log10(255.0 ** 2 / max(float(np.mean(err ** 2)), 1e-10)))
 
 
 def run_case(name: str, frames: int, size: tuple[int, int]) -> dict:

@@ -20,9 +20,9 @@ from pathlib import Path
 import uvicorn
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
-from unjello.webapp import create_app
 
 from unjello.preview import PreviewClip
+from unjello.preview.webapp import create_app
 
 
 def main() -> None:

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -193,7 +194,7 @@ def test_a_config_is_picklable_for_a_cluster():
 def test_readme_preset_example_runs(tmp_path):
     """The JSON preset shown in the README is a valid preset."""
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = readme.split("```json", 1)[1].split("```", 1)[0]
+    block = re.search(r'`(\{"readout".*?\})`', readme).group(1)
     p = tmp_path / "p.json"
     p.write_text(block)
     CorrectionConfig.from_preset(p)

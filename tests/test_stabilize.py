@@ -22,7 +22,8 @@ from unjello.stabilize import (
 )
 from unjello.timing import SensorTiming, pixel_grid
 from unjello.trajectory import FrameMotion, Reframe, Trajectory
-from unjello.warp.warper import apply_maps, reframe_maps
+from unjello.warp.maps import reframe_maps
+from unjello.warp.warper import apply_maps
 
 from .runner import clean_failure, run
 

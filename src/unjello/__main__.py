@@ -4,7 +4,7 @@ NumPy's BLAS (OpenBLAS) starts a thread per core when NumPy loads, and those thr
 after every call: the command's algebra is small (a few hundred unknowns) and the encoder
 wants the cores, so the command runs BLAS on one thread unless the user set
 ``OPENBLAS_NUM_THREADS``. On the 1080p speed clip that cost 2 % of the whole run's CPU
-(``docs/measurements.md``). It is set before anything imports NumPy; the library, imported
+(``docs/history/measurements.md``). It is set before anything imports NumPy; the library, imported
 on its own, leaves the user's process as it is.
 """
 

@@ -148,8 +148,8 @@ class Corrector:
         self._count = 0  # pictures pushed
         self._only = only
         self._held: deque[list[np.ndarray]] = deque()
-        self._last: list[np.ndarray] | None = None  # the previous picture, as read
-        self._last2: list[np.ndarray] | None = None  # and the one before it
+        # The pictures before the next one held, as read: as many as the warp reads.
+        self._before: deque[list[np.ndarray]] = deque(maxlen=PictureWarper.REACH)
 
     def push(self, planes: Sequence[np.ndarray], start: float, joined: str | None = None
              ) -> list[tuple[list[np.ndarray], FrameMotion]]:
@@ -219,7 +219,7 @@ class Corrector:
             self.stretches[-1] = self.stretches[-1].ended(self._count - 1, self._method)
         self._method, self._first = self._make(), self._count
         self._stabilizer, self._luma = None, None
-        self._last = self._last2 = None
+        self._before.clear()
         return done
 
     @property
@@ -282,13 +282,15 @@ class Corrector:
         out = []
         for fm in motions:
             planes = self._held.popleft()
-            around = {-2: self._last2, -1: self._last, 1: self._held[0] if self._held else None,
-                      2: self._held[1] if len(self._held) > 1 else None}
+            reach = range(1, PictureWarper.REACH + 1)
+            around = {**{-k: self._before[-k] if len(self._before) >= k else None
+                         for k in reach},
+                      **{k: self._held[k - 1] if len(self._held) >= k else None for k in reach}}
             skip = self._only is not None and fm.index not in self._only
             if skip:
                 out.append((planes, fm))
             else:
                 warped = self.warp(planes, fm, around)
                 out.append((warped, dataclasses.replace(fm, unseen=self.warp.unseen)))
-            self._last2, self._last = self._last, planes
+            self._before.append(planes)
         return out

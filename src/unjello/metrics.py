@@ -18,7 +18,7 @@ from .errors import InputError
 from .io.source import read_frames
 from .trajectory import FrameMotion, Trajectory
 
-__all__ = ["psnr", "ssim", "displacement_error", "crop_margin", "evaluate"]
+__all__ = ["psnr", "region_psnr", "ssim", "displacement_error", "crop_margin", "evaluate"]
 
 
 def crop_margin(image: np.ndarray, margin: int | tuple[int, int]) -> np.ndarray:
@@ -51,6 +51,21 @@ def psnr(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0
     from skimage.metrics import peak_signal_noise_ratio  # on use: it imports scipy.stats
 
     return float(peak_signal_noise_ratio(b, a, data_range=_range(truth)))
+
+
+def region_psnr(image: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:
+    """PSNR in dB (8-bit) over the pixels of ``mask`` (NaN where it has none).
+
+    Examples
+    --------
+    >>> a = np.full((8, 8), 100, np.uint8); m = np.zeros((8, 8), bool); m[:2] = True
+    >>> round(region_psnr(a, a + 1, m), 2)
+    48.13
+    """
+    if not mask.any():
+        return float("nan")
+    err = (np.asarray(image, np.float64) - np.asarray(truth, np.float64))[mask]
+    return float(10 * np.log10(255.0 ** 2 / max(float(np.mean(err ** 2)), 1e-10)))
 
 
 def ssim(image: np.ndarray, truth: np.ndarray, margin: int | tuple[int, int] = 0) -> float:

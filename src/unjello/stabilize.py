@@ -9,7 +9,7 @@ agree, from the integral of the frames' scanline velocity (:func:`reference_step
 same integral as eq. 26). It smooths the path and gives each frame a :class:`Reframe` --
 a shift and a turn that move the content to the smooth path and a zoom about the centre
 that keeps the borders filled. The warper composes it with the correction's backward
-map, so the picture is resampled once (:func:`unjello.warp.warper.reframe_maps`).
+map, so the picture is resampled once (:func:`unjello.warp.maps.reframe_maps`).
 
 The smooth path
 ---------------

@@ -143,7 +143,7 @@ class FrameMotion:
         rotation's backward displacement ``(dx, dy)`` (the output pixel ``p`` shows the
         frame's ``p + (dx, dy)``, in pixels of the full frame) and the object's weight
         (0-1) at each pixel of the frame. Where the rotated object lands, the picture
-        takes the rotation's source (:func:`unjello.warp.warper.front_maps`): a forward
+        takes the rotation's source (:func:`unjello.warp.maps.front_maps`): a forward
         ``field`` alone cannot show a turned-back tip over the background it lands on.
     neighbours : tuple of (int, ndarray), optional
         Dense methods: the flow from this frame to the frame ``offset`` away, shape

@@ -36,6 +36,7 @@ from .errors import MissingExtraError, SettingsError
 from .io.video import PIPE
 from .pipeline import Corrector
 from .trajectory import FrameMotion
+from .warp.warper import PictureWarper
 
 __all__ = ["correct"]
 
@@ -101,18 +102,16 @@ def correct(clip: Any, *, readout: float | str | None = None,
         motions.update((fm.index, fm) for _, fm in corrector.push(picture(frame), float(n)))
     motions.update((fm.index, fm) for _, fm in corrector.flush())
     last = clip.num_frames - 1
-    before = clip[0] + clip[:-1] if last else clip  # frame n - 1 at n
-    after = clip[1:] + clip[-1] if last else clip  # frame n + 1 at n
-    before2 = clip[0] + before[:-1] if last else clip  # frame n - 2 at n
-    after2 = after[1:] + clip[-1] if last else clip  # frame n + 2 at n
+    # Frame n + k at n, for every offset the warp reads (the ends repeated, not used).
+    offsets = [k for r in range(1, PictureWarper.REACH + 1) for k in (-r, r)]
+    shifted = [_shifted(clip, k) for k in offsets]
 
     lock = threading.Lock()  # VapourSynth asks from several threads; the warper reuses buffers
 
     def render(n: int, f: list[Any]) -> Any:
         fm = motions[n]
-        around = {-1: picture(f[1]) if n > 0 else None, 1: picture(f[2]) if n < last else None,
-                  -2: picture(f[3]) if n > 1 else None,
-                  2: picture(f[4]) if n < last - 1 else None}
+        around = {k: picture(g) if 0 <= n + k <= last else None
+                  for k, g in zip(offsets, f[1:], strict=True)}
         with lock:
             out = corrector.warp(picture(f[0]), fm, around)
         planes = [out[0][..., k] for k in range(3)] if rgb else out
@@ -126,4 +125,14 @@ def correct(clip: Any, *, readout: float | str | None = None,
         dst.props["UnjelloConfidence"] = float(fm.confidence)
         return dst
 
-    return clip.std.ModifyFrame([clip, before, after, before2, after2], render)
+    return clip.std.ModifyFrame([clip, *shifted], render)
+
+
+def _shifted(clip: Any, k: int) -> Any:
+    """Return ``clip`` with frame ``n + k`` at ``n`` (its first or last frame repeated)."""
+    n = clip.num_frames
+    if n < 2 or k == 0:
+        return clip
+    if abs(k) >= n:
+        return clip[0] * n if k < 0 else clip[-1] * n
+    return clip[0] * (-k) + clip[:k] if k < 0 else clip[k:] + clip[-1] * k

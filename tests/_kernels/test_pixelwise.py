@@ -139,7 +139,7 @@ def test_the_kernels_compile_once_and_run_without_a_writable_cache(tmp_path):
     """First use compiles (under 10 CPU seconds) into the cache, later runs load it; where
     Numba finds no cache directory it can write (a read-only install, no home), they still
     run. The first use is timed twice, into two empty caches, and the quicker counts: on a
-    shared machine one compile took 5.2-7.1 s over five runs (docs/measurements.md)."""
+    shared machine one compile took 5.2-7.1 s over five runs (docs/history/measurements.md)."""
     code = "from unjello._kernels import pixelwise; print(pixelwise.warm_up())"
     times = []
     for cache in ("a", "a", "b"):  # compile, load, compile again

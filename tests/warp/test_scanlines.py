@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from unjello.warp.maps import remap_maps
 from unjello.warp.scanlines import shift_planes
-from unjello.warp.warper import apply_maps, remap_maps
+from unjello.warp.warper import apply_maps
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])

@@ -3,15 +3,8 @@ import pytest
 
 from unjello.timing import SensorTiming
 from unjello.trajectory import scanline_displacement
-from unjello.warp.warper import (
-    PictureWarper,
-    field_maps,
-    fill_holes,
-    remap,
-    resample_displacement,
-    resize_maps,
-    splat,
-)
+from unjello.warp.maps import field_maps, resize_maps
+from unjello.warp.warper import PictureWarper, fill_holes, remap, resample_displacement, splat
 
 
 @pytest.fixture
@@ -132,7 +125,7 @@ def test_a_front_layer_shows_the_turned_object_where_it_lands():
 
     from unjello.motion.objects.spinners import Spin, spin_field, spin_source
     from unjello.trajectory import FrameMotion
-    from unjello.warp.warper import frame_maps
+    from unjello.warp.maps import frame_maps
 
     h, w = 80, 100
     yy, xx = np.mgrid[0:h, 0:w]
@@ -194,7 +187,7 @@ def test_a_layer_s_soft_edge_takes_one_source_where_the_two_are_far_apart():
     position between the background's source and the pole's is neither: at such a
     pixel the map takes the source of more weight. Sources a pixel apart still blend."""
     from unjello.timing import pixel_grid
-    from unjello.warp.warper import FRONT_BLEND, front_maps
+    from unjello.warp.maps import FRONT_BLEND, front_maps
 
     h, w = 4, 80
     gx, gy = pixel_grid(h, w)

@@ -15,7 +15,7 @@ def compiled(fn: Callable[..., Any]) -> Any:
 
     A kernel releases the GIL: the threads measuring the next frames' flows run on
     while the main thread is in one (1080p default, timed whole: CPU 0.988x, wall 0.986x,
-    ``docs/measurements.md``). Numba keys its cache on the kernel's source file, not on
+    ``docs/history/measurements.md``). Numba keys its cache on the kernel's source file, not on
     these options: a cache written by an older build of the same files is only replaced
     once they change (a new install does; in a working tree, delete ``__pycache__``).
     """

@@ -9,7 +9,7 @@ and :mod:`unjello._kernels.drift`'s, then loaded from the cache next to this fil
 where that is read-only, Numba's user-wide cache; with no writable cache anywhere,
 compiled every run). Where OpenCV does a job in one vectorised call (resampling
 a smooth field at moved positions) it stays: compiled loops of those were slower
-(``docs/measurements.md``).
+(``docs/history/measurements.md``).
 
 Bilinear sampling clamps the position to the grid, which is OpenCV's ``INTER_LINEAR`` with
 ``BORDER_REPLICATE`` without its 1/32-pixel quantisation of the position. Each kernel has

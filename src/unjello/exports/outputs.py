@@ -19,7 +19,7 @@ from ..io.source import FrameSource
 from ..io.video import EncodeOptions, VideoWriter
 from ..timing import SensorTiming
 from ..trajectory import FrameMotion, Trajectory, TrajectoryWriter
-from ..warp.warper import frame_maps, resize_maps
+from ..warp.maps import frame_maps, resize_maps
 
 __all__ = ["backward_maps", "maps_to_coded", "stmap_image", "write_stmap",
            "plot_trajectory", "side_by_side", "side_by_side_planes", "SideOutputs"]

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import av
 import numpy as np
 
-__all__ = ["h264_roundtrip"]
+__all__ = ["h264_roundtrip", "degrade"]
 
 
 def h264_roundtrip(frames: Sequence[np.ndarray], crf: int, fps: float = 30.0
@@ -47,3 +47,15 @@ def h264_roundtrip(frames: Sequence[np.ndarray], crf: int, fps: float = 30.0
     buf.seek(0)
     with av.open(buf) as c:
         return [fr.to_ndarray(format="rgb24") for fr in c.decode(video=0)]
+
+
+def degrade(frames: Sequence[np.ndarray], seed: int = 0, noise: float = 3.0, crf: int = 26
+            ) -> list[np.ndarray]:
+    """Return the frames as a camera delivers them: noisy, then compressed.
+
+    Gaussian sensor noise of ``noise`` grey levels (from ``seed``), then libx264 at ``crf``
+    and back (:func:`h264_roundtrip`).
+    """
+    rng = np.random.default_rng(seed)
+    noisy = [np.clip(f + rng.normal(0, noise, f.shape), 0, 255).astype(np.uint8) for f in frames]
+    return h264_roundtrip(noisy, crf)

@@ -41,14 +41,9 @@ TILES = 4
 #: Tiles flatter than this grey-level standard deviation (0-255) do not vote: a flat sky
 #: matches anything.
 FLAT = 3.0
-#: A pair whose copies' tiles match below this (:func:`similarity`), whose tones differ
-#: by more than ``TONES`` (:func:`tones`), and that the shift of the pair before or after
-#: does not explain either (their tiles match below ``SIMILAR`` at it), is a cut. On the
-#: simulated matrix (``benchmarks/matrix.py``: 128 clips, 13 cuts) and six pans of
-#: 25-50 % of the width a frame past near poles: the cuts match 0.26-0.56, tones
-#: 0.20-0.86, at the pace around 0.46 at most; of the other pairs 6 match under 0.6, 3 of
-#: them with tones over 0.15 (a pan of 40-50 % past poles), all three at the pace around
-#: 0.995 or more. Every cut found, no other break; none on the real clips.
+#: A pair whose copies' tiles match below this (:func:`similarity`), whose tones differ by more than
+#: ``TONES`` (:func:`tones`), and that the shift of the pair before or after does not explain either
+#: (their tiles match below ``SIMILAR`` at it), is a cut. (``docs/tuning.md#similar``)
 SIMILAR, TONES = 0.6, 0.15
 #: Two frames both darker than this mean grey level (0-255) are not compared: too little
 #: light to tell a cut from noise (a fade's last frames, black frames between two shots).

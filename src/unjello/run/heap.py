@@ -6,7 +6,7 @@ between live ones add up: at 4K the process held 115-130 MiB it did not use (pea
 resident 2227 against 2123 MiB with a trim every ten pictures, the simulated 3840 x 2160
 speed clip, 60 frames). ``malloc_trim`` returns them. At 1080p they come to about 75 MiB,
 which the next frames use again: trimming them too made those frames fault the memory in
-again, 1-3 % of the whole run's CPU (``docs/measurements.md``). So the heap is trimmed
+again, 1-3 % of the whole run's CPU (``docs/history/measurements.md``). So the heap is trimmed
 only while it holds more than :data:`HELD_MAX` freed. Elsewhere than glibc it is a
 no-op. Called as pictures are written: by a whole run (:mod:`unjello.pipeline`) and by
 each segment of a long clip on a cluster (:mod:`unjello.run.segments`).

@@ -5,7 +5,7 @@ Frame pairs' flows are independent, so they are measured ahead on a pool of thre
 before them. Parallel work *between* frames is cheaper than OpenCV's own threads
 *within* each call: on small working copies its pool spends a third of the CPU time
 handing work out and waiting (1080p default on 2 cores: 161 against 117 core-ms a frame
-for the correction stage, ``docs/measurements.md``), so OpenCV runs single-threaded
+for the correction stage, ``docs/history/measurements.md``), so OpenCV runs single-threaded
 while the pool is up, and is given back its thread count afterwards.
 """
 

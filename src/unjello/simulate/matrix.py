@@ -28,7 +28,7 @@ from functools import cache
 import cv2
 import numpy as np
 
-from ..metrics import displacement_error, psnr
+from ..metrics import displacement_error, psnr, region_psnr
 from ..timing import SensorTiming, to_top_bottom
 from ..trajectory import FrameMotion, Trajectory
 from .motion import Motion, Vibration
@@ -300,11 +300,6 @@ def build(case: Case) -> Clip:
                 case.frames if case.then is not None else None)
 
 
-def _region_psnr(image: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> float:
-    err = (np.asarray(image, np.float64) - np.asarray(truth, np.float64))[mask]
-    return float(10 * np.log10(255.0 ** 2 / max(float(np.mean(err ** 2)), 1e-10)))
-
-
 def score(case: Case, correct: Correct) -> dict:
     """Correct a case with ``correct(frames, timing, fps)`` and score it (module docstring)."""
     clip = build(case)
@@ -328,7 +323,7 @@ def score(case: Case, correct: Correct) -> dict:
     if any(b is not None for b in clip.background):
         keep = [(i, b) for i, b in enumerate(clip.background) if b is not None and b.any()]
         for key, images in (("background_in", clip.rolling), ("background_out", out)):
-            row[key] = round(float(np.mean([_region_psnr(images[i], clip.truth[i], b)
+            row[key] = round(float(np.mean([region_psnr(images[i], clip.truth[i], b)
                                             for i, b in keep])), 2)
     if clip.cut is not None:
         k = clip.cut

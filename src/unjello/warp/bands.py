@@ -20,10 +20,8 @@ from .._kernels.field import map_rows, outside_in_rows
 
 __all__ = ["PlaneMaps", "warp_bands", "band_rows", "BAND_SAMPLES"]
 
-#: Map samples in a band (its rows times the plane's width): both maps of a band take
-#: 2 x 4 bytes a sample, 0.5 MB, within a core's cache. At 1080p, 1080 x 1920 luma,
-#: one thread: 7.0-7.4 ms for the maps and the remap band by band against 9.2-10.3 ms
-#: whole (``docs/measurements.md``).
+#: Map samples in a band (its rows times the plane's width): both maps of a band take 2 x 4 bytes a
+#: sample, 0.5 MB, within a core's cache. (``docs/tuning.md#band_samples``)
 BAND_SAMPLES = 1 << 16
 
 

@@ -5,7 +5,7 @@ the correction fitted a motion of its own (a spinner turned back, a near pole's 
 on the field's grid, the backward displacement of the object's motion (in pixels of the
 full frame) and the object's weight at each pixel of the frame. :func:`layer_sources`
 says where each output pixel would take the object from and how much of the object is
-there; :func:`unjello.warp.warper.front_maps` shows it over the maps and :func:`shown_objects`
+there; :func:`unjello.warp.maps.front_maps` shows it over the maps and :func:`shown_objects`
 tells the neighbours' fill where it is shown.
 """
 

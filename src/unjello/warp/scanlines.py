@@ -3,7 +3,7 @@
 A per-scanline displacement (eq. 26) moves every pixel of an output row by the same
 amount: each row's source row and horizontal shift (:func:`row_sources`) say all of it.
 :func:`shift_planes` warps a plane by them in one compiled pass over the rows; the maps
-for :func:`cv2.remap` (:func:`unjello.warp.warper.remap_maps`) are built from the same sources
+for :func:`cv2.remap` (:func:`unjello.warp.maps.remap_maps`) are built from the same sources
 where something is composed with the warp (a stabilisation, a lens).
 """
 
@@ -49,9 +49,9 @@ def shift_planes(image: np.ndarray, displacement: np.ndarray,
 
     Along an output row the source moves by a constant, so one compiled pass over the
     rows (:func:`~unjello._kernels.pixelwise.shift_rows`) does what :func:`cv2.remap` does with
-    :func:`unjello.warp.warper.remap_maps`, within one grey level (its 1/32-pixel weights): a
+    :func:`unjello.warp.maps.remap_maps`, within one grey level (its 1/32-pixel weights): a
     1080p luma plane in 0.6 against 5.6 ms of one core, maps included
-    (``docs/measurements.md``).
+    (``docs/history/measurements.md``).
 
     Parameters
     ----------

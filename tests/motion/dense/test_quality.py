@@ -1,18 +1,25 @@
 """The dense method end to end on simulated clips: parallax, objects, jello, whip pans."""
 
+import functools
+
 import numpy as np
 import pytest
-from benchmarks.synthetic import degrade  # the suite's noise and CRF 26
 
 from tests.quality import SIZE
 from tests.quality import run_simulated as _run
 from unjello.config import CorrectionConfig
+from unjello.io.roundtrip import degrade  # the suite's noise and CRF 26
 from unjello.metrics import displacement_error, psnr
 from unjello.motion.dense.method import FOLD_WARNING, DenseConfig
 from unjello.pipeline import correct_frames
 from unjello.simulate import Motion, simulate
+from unjello.simulate.poles import pole_bends
+from unjello.simulate.poles import run as run_poles
 from unjello.summary import summarize
 from unjello.timing import SensorTiming
+
+#: A pan past flat near poles, corrected by default and scored (``benchmarks/edges.py``).
+run = functools.partial(run_poles, correct=correct_frames, fold_warning=FOLD_WARNING)
 
 # Beyond the paper: the dense method on motions a scanline translation cannot follow.
 
@@ -79,8 +86,6 @@ def test_the_strip_beyond_the_edge_comes_from_the_frame_that_saw_it():
     the flow at the edge failed its check (content entering the frame), the neighbour is
     followed by the row's camera model instead: the clip's strip the next frame saw 27.32
     -> 33.18 dB, the strip no frame saw 14.61 -> 23.10."""
-    from benchmarks.edges import run
-
     clip = run("astronaut", 0.25, 0.4, 10, (320, 180), near=1.0)
     assert clip["out_next"] > 31.0 and clip["out_prev"] > 45.0, clip
     assert clip["out_unseen"] > 20.0, clip
@@ -96,8 +101,6 @@ def test_a_near_pole_leaving_the_frame_keeps_its_own_motion():
     taken for one the flow follows: it kept the background's motion (6.6 px off at its
     top). Measured (benchmarks/edges.py): the poles within 30 px of a side, rows within
     1 px of the truth 0.43 -> 0.62; the frame 27.25 -> 28.39 dB."""
-    from benchmarks.edges import run
-
     clip = run("astronaut", 0.25, 0.4, 10, (320, 180), near=1.3)
     assert clip["out_rows"] >= 0.55 and clip["out_frame"] >= 28.0, clip
 
@@ -109,8 +112,6 @@ def test_a_near_pole_in_a_pair_keeps_its_own_motion():
     interior 20.54 -> 24.03 dB, the frame 20.24 -> 23.30; and the background it uncovered
     read from the one neighbour (the pole had left a slanted copy of itself there): 26.66
     / 25.40 (benchmarks/edges.py)."""
-    from benchmarks.edges import run
-
     pair = run("astronaut", 0.25, 1.0, 2, (320, 180), near=1.3)
     assert pair["out_interior"] > 26.0 and pair["out_frame"] > 24.8, pair
 
@@ -123,8 +124,6 @@ def test_background_a_near_pole_uncovered_comes_from_the_neighbour_that_saw_it(m
     31.27 -> 32.57 dB, frame 32.31 -> 33.95; astronaut 25 % with readout 1.0, frame 22.34 ->
     24.16; no clip's frame PSNR lower by more than 0.07 dB (single frames: four rocket
     frames 0.04-0.83 dB); the Carla town clip (forward motion) byte for byte the same."""
-    from benchmarks.edges import run
-
     import unjello.warp.fill.planes as neighbour_fill
 
     now = run("rocket", 0.25, 0.4, 10, (320, 180), near=1.3)
@@ -261,8 +260,9 @@ def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(sce
     there: PSNR around the blades (grown by 12 px) on the inner frames 6.04-10.54 dB
     above the input, 2.59-4.90 dB with the forward field alone."""
     import cv2
-    from benchmarks.synthetic import region_psnr
     from skimage import data
+
+    from unjello.metrics import region_psnr
 
     timing = SensorTiming(1.0)
     sim = list(simulate(scene, Motion("pan", speed=5.0), timing, 8, size=SIZE,
@@ -317,8 +317,6 @@ def test_uncovered_background_two_neighbours_agree_on_is_kept(monkeypatch):
     frames with an object moving on its own: astronaut 25 %/1.0 clip interior 23.58 ->
     24.40 dB when it came; since regions kept whole take their rows' camera motion, the
     rocket 25 %/1.0 clip's frame 30.71 -> 31.67 dB (benchmarks/edges.py)."""
-    from benchmarks.edges import run
-
     import unjello.warp.fill.uncovered as uncovered
 
     now = run("rocket", 0.25, 1.0, 10, (320, 180), near=1.3)
@@ -332,8 +330,6 @@ def test_the_strip_beside_a_leaving_pole_is_read_at_the_background_s_motion(monk
     pole's; the strip's background was read 10 px off. Re-read at the background's motion:
     the rocket 10 %/0.4 pair's strip the previous frame saw 23.28 -> 29.75 dB (the input
     24.58; benchmarks/edges.py)."""
-    from benchmarks.edges import run
-
     import unjello.warp.fill.leaving as leaving
 
     now = run("rocket", 0.1, 0.4, 2, (320, 180), near=1.3)
@@ -349,8 +345,6 @@ def test_a_pole_in_a_pair_is_fitted_on_the_failed_flow_around_it():
     drift explains more than the background's motion: the pole came out leaning. Fitted
     again on that hull's pixels near the failed flow, it is carried by its own velocity:
     the astronaut 25 %/0.4 pair's interior 25.92 -> 29.09 dB (benchmarks/edges.py)."""
-    from benchmarks.edges import run
-
     pair = run("astronaut", 0.25, 0.4, 2, (320, 180), near=1.3)
     assert pair["out_interior"] > 28.5 and pair["out_frame"] > 28.5, pair
 
@@ -362,8 +356,6 @@ def test_a_fast_pan_one_pair_lost_keeps_the_pace_of_the_pairs_around_it():
     0.3 px (measured 0.02-0.05; --preset fast 0.09-0.61 after the first frame), no fold,
     the pole within 30 px of a side straight within 1 px (bent 3 px before,
     benchmarks/edges.py)."""
-    from benchmarks.edges import pole_bends
-
     from tests.motion.flow.test_dis import _flagpole_pan
 
     sim, layers = _flagpole_pan()

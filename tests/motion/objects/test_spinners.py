@@ -6,7 +6,8 @@ import pytest
 from skimage import data
 
 from unjello.motion.objects.folds import failed_blobs
-from unjello.motion.objects.spinners import _edged, fit_spin, keep_spinning, spin_field
+from unjello.motion.objects.spinners import fit_spin, keep_spinning, spin_field
+from unjello.motion.objects.support import edged
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 
@@ -110,11 +111,11 @@ def test_a_flat_patch_is_no_object_to_fit_a_motion_to():
     img[:, 70:80] = 250.0
     band = np.zeros(img.shape, bool)
     band[:, 40:66] = True
-    assert not _edged(img, band)
+    assert not edged(img, band)
     pole = np.zeros(img.shape, bool)
     pole[:, 68:82] = True
-    assert _edged(img, pole)
-    assert not _edged(img, np.zeros(img.shape, bool))
+    assert edged(img, pole)
+    assert not edged(img, np.zeros(img.shape, bool))
 
 
 def test_corners_no_neighbour_saw_are_fitted_no_motion_of_their_own():
@@ -145,7 +146,7 @@ def test_a_lone_neighbour_leaves_the_background_the_object_covered_there(stripes
     with the pole (carried, it looks the same and fills what the pole uncovers: sky
     beside the rocket 15 %/1.0 clip's poles). The pole keeps all of its columns."""
     from unjello.motion.objects.rigid import Spin
-    from unjello.motion.objects.spinners import spin_support
+    from unjello.motion.objects.support import spin_support
 
     x = np.arange(160, dtype=np.float32)
     background = np.broadcast_to(120 + stripes * np.sin(2 * np.pi * x / 7), (80, 160))

@@ -324,7 +324,7 @@ def test_background_a_pole_covers_in_the_previous_frame_is_read_two_frames_back(
     from skimage import data
 
     from unjello.pipeline import correct_frames
-    from unjello.warp.warper import frame_maps
+    from unjello.warp.maps import frame_maps
 
     from ...clips import pole_pan
 

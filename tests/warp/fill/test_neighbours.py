@@ -11,7 +11,7 @@ from unjello.warp.fill.neighbours import (
     neighbour_sources,
     unseen_share,
 )
-from unjello.warp.warper import remap_maps, resize_maps
+from unjello.warp.maps import remap_maps, resize_maps
 
 
 def test_fill_from_neighbours_takes_what_the_frame_missed():
@@ -124,7 +124,7 @@ def test_the_strip_below_a_diagonal_pan_comes_from_where_the_previous_frame_saw_
     from unjello.pipeline import correct_frames
     from unjello.simulate import Motion, simulate
     from unjello.timing import SensorTiming
-    from unjello.warp.warper import frame_maps
+    from unjello.warp.maps import frame_maps
 
     timing = SensorTiming(1.0)
     sim = list(simulate(data.astronaut(), Motion.steps([(80.0, 48.0)], [100.0]), timing, 2,

@@ -6,7 +6,8 @@ import pytest
 from unjello.timing import SensorTiming
 from unjello.trajectory import FrameMotion
 from unjello.warp.fill.uncovered import confirmed, uncovered, uncovered_sources
-from unjello.warp.warper import PictureWarper, field_maps
+from unjello.warp.maps import field_maps
+from unjello.warp.warper import PictureWarper
 
 H, W = 24, 64
 POLE = slice(30, 36)  # the near object's columns in this frame

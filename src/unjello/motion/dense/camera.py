@@ -26,27 +26,24 @@ __all__ = ["BLAS", "SINE_RIDGE", "ROBUST_KNEE", "KNOT_SEEN", "KNOT_TIE", "OUTLIE
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
 BLAS = ThreadpoolController()
 
-# Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight: a
-# sinusoid the frame differences barely see must not fit noise (``docs/tuning.md``).
+#: Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight: a
+#: sinusoid the frame differences barely see must not fit noise (``docs/tuning.md``).
 SINE_RIDGE = 1e-3
 
-# Acceleration beyond this many times the median is penalised by its size rather than its
-# square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
+#: Acceleration beyond this many times the median is penalised by its size rather than its
+#: square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
 ROBUST_KNEE = 3.0
 
-# An equation whose misfit is this many times the median misfit weighs half as much in
-# :func:`solve_reweighted` (a Cauchy weight; three times as far off, a tenth), ...
+#: An equation whose misfit is this many times the median misfit weighs half as much in
+#: :func:`solve_reweighted` (a Cauchy weight; three times as far off, a tenth), ...
 OUTLIER_SPREAD = 3.0
-# ... the median taken as this many pixels at least (a clean pan leaves misfits of
-# hundredths: then nothing is an outlier).
+#: ... the median taken as this many pixels at least (a clean pan leaves misfits of
+#: hundredths: then nothing is an outlier).
 OUTLIER_FLOOR = 0.5
 
-#: A knot of the row velocity that the equations reach with less than this share of the
-#: median knot's weight is partly unseen: its ridge fades and it is tied to its
-#: neighbours by up to :data:`KNOT_TIE` (relative to the total weight). In a diagonal pan
-#: of 64 x 38 px a frame (320 x 180, readout 0.4) no equation reached the top fifth of the
-#: rows, whose camera then stood still (-0.6 px at the top row where the scene moved -12.7
-#: px; ``docs/measurements.md``).
+#: A knot of the row velocity that the equations reach with less than this share of the median
+#: knot's weight is partly unseen: its ridge fades and it is tied to its neighbours by up to
+#: :data:`KNOT_TIE` (relative to the total weight). (``docs/tuning.md#knot_seen``)
 KNOT_SEEN, KNOT_TIE = 0.1, 0.1
 
 def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,
@@ -168,9 +165,13 @@ def _knot_penalty(reach: np.ndarray) -> np.ndarray:
             + KNOT_TIE * d1.T @ (tie[:, None] * d1))
 
 
+#: Knots of the row velocity ``u`` over the frame height (linear in between).
+ROW_KNOTS = 16
+
+
 def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray | None,
                             delta: np.ndarray, weight: np.ndarray, step: float,
-                            smoothness: float, row_knots: int = 16,
+                            smoothness: float, row_knots: int = ROW_KNOTS,
                             freqs: np.ndarray | None = None, robust: int = 0
                             ) -> CameraSolution:
     """Solve ``c(t_a) - c(t_b) + u(y) (t_a - t_b) = delta`` by regularised least squares.

@@ -86,7 +86,7 @@ class ModelChoice:
         """Measure the probed pairs' polished flows again, at the vibration's full detail.
 
         Under a vibration model the polished flows of the probe cost the simulated drone
-        jello 0.06x (0.644x -> 0.704x of the uncorrected error; ``docs/measurements.md``);
+        jello 0.06x (0.644x -> 0.704x of the uncorrected error; ``docs/history/measurements.md``);
         the frames are all still held while the probe decides, so their flows are measured
         again (once per vibrating clip), and the pairs already started too: every pair
         measured with other settings than the vibration's (whatever the polish).

@@ -19,13 +19,7 @@ __all__ = ["DenseConfig", "POLISHED", "DETAILS"]
 DETAILS = ("full", "polished", "checked")
 
 #: The polished flow (``detail='polished'``): DIS medium down to pyramid level 1 with three
-#: refinement iterations a level, then one at full resolution. Measured against other
-#: mixes (``docs/measurements.md``): the research pairs 28.80 / 31.45 dB with one, 28.81 /
-#: 31.45 with two, 28.79 / 31.43 with none (at the Carla floor issue 37 sets; ``full``:
-#: 28.78 / 31.57); the simulated suite within 0.002x of two. An iteration costs about 3 ms
-#: of one core a frame pair on a 480 x 270 copy; the second was kept until the near pole
-#: it decided in a ``benchmarks/edges.py`` pair had a drift threshold of its own
-#: (:data:`~unjello.motion.objects.spinners.DRIFT_GAIN`).
+#: refinement iterations a level, then one at full resolution. (``docs/tuning.md#polished``)
 POLISHED = {"finest_scale": 1, "refinement": 3, "polish": 1}
 
 
@@ -59,7 +53,7 @@ class DenseConfig:
         on copies up to 480 px wide (``finest_scale``, ``refinement``). ``polished``: DIS
         down to half the working copy's resolution (:data:`POLISHED`), then variational
         refinement at its full resolution: half the flow's cost, 0.1 dB less on the
-        research pairs, and spinning objects missed (``docs/measurements.md``); the
+        research pairs, and spinning objects missed (``docs/history/measurements.md``); the
         first spinning or kept object turns the full flow back on. ``checked`` (the
         default): the polished flow where it explains the frame pair, the full one where
         it does not (:func:`~unjello.motion.flow.dis.explains`: a spinner); a clip found to

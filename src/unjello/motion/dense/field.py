@@ -86,11 +86,10 @@ def rows_minus(rows: np.ndarray, field: np.ndarray) -> np.ndarray:
             - np.ascontiguousarray(field).reshape(h, 2 * w)).reshape(h, w, 2)
 
 
-#: Given a prior, :func:`fill_unreliable` uses it where reliable pixels weigh less than
-#: this around a pixel: a few stray "reliable" pixels (a wrong flow that passed the
-#: check) in content entering the frame otherwise gave the whole band beside them their
-#: flow (a 40 % pan, astronaut pair: mean displacement error 2.74 -> 1.09 px). At 0.1 the
-#: Carla pairs lost 0.11 dB, at 0.2 0.30; at 0.05 every research pair within 0.02 dB.
+#: Given a prior, :func:`fill_unreliable` uses it where reliable pixels weigh less than this around
+#: a pixel: a few stray "reliable" pixels (a wrong flow that passed the check) in content entering
+#: the frame otherwise gave the whole band beside them their flow (a 40 % pan, astronaut pair: mean
+#: displacement error 2.74 -> 1.09 px). (``docs/tuning.md#prior_below``)
 PRIOR_BELOW = 0.05
 
 
@@ -156,8 +155,12 @@ def projective_flow(coef: np.ndarray, x: np.ndarray, y: np.ndarray, size: tuple[
                     axis=-1)
 
 
+#: The projective fit of a field takes every this-many-th sample of its grid, each way.
+PROJECTIVE_STRIDE = 8
+
+
 def fit_projective(values: np.ndarray, ok: np.ndarray, x: np.ndarray, y: np.ndarray,
-                    stride: int = 8) -> np.ndarray | None:
+                    stride: int = PROJECTIVE_STRIDE) -> np.ndarray | None:
     """Robust fit of the projective flow (:func:`projective_flow`) to ``values`` at ``(x, y)``.
 
     Iteratively reweighted least squares (four rounds, residuals beyond 1.5 times their
@@ -254,7 +257,7 @@ def _projective_irls(xs: np.ndarray, ys: np.ndarray, target: np.ndarray, rounds:
 
 
 def advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
-                       ahead: np.ndarray, stride: int = 8) -> np.ndarray:
+                       ahead: np.ndarray, stride: int = PROJECTIVE_STRIDE) -> np.ndarray:
     """Each pixel's velocity, moved along its path ahead through the smooth flow field.
 
     ``vel`` is each pixel's mean velocity over its measured path to the neighbour frame
@@ -282,8 +285,13 @@ def advected_velocity(vel: np.ndarray, ok: np.ndarray, flow: np.ndarray,
             - projective_flow(coef, mid_x, mid_y, (h, w)))
 
 
+#: Side (px) of the patch over which :func:`snap_to_global` compares a pixel's flow with
+#: the global motion.
+SNAP_WINDOW = 9
+
+
 def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.ndarray,
-                   window: int = 9) -> np.ndarray:
+                   window: int = SNAP_WINDOW) -> np.ndarray:
     """Give pixels the frame's global motion where it explains them as well as their own flow.
 
     Dense flow is smoothed across motion boundaries (the background next to a moving

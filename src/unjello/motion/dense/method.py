@@ -32,7 +32,7 @@ replaces the motion model:
 
 Each pixel ``s`` then belongs at ``p = s - D(s)`` with
 ``D(s) = c(t_s) - c(t_ref) - R_s(t_ref)`` (eq. 26 per pixel), applied by the dense
-backward warp (:func:`unjello.warp.warper.field_maps`, :func:`unjello.warp.warper.apply_maps`). No
+backward warp (:func:`unjello.warp.maps.field_maps`, :func:`unjello.warp.warper.apply_maps`). No
 still first frame is assumed: every frame is corrected to its own reference time.
 """
 
@@ -85,14 +85,11 @@ from .vibration import (
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]
 
-#: A pair whose flow's translation strays from the pace of the pair before by more than
-#: this share of it is measured again from that pace (:meth:`DenseMethod._steady`): at a
-#: quarter, a pair that followed a near pole (21 % faster, the only content two frames
-#: shared) was not.
+#: A pair whose flow's translation strays from the pace of the pair before by more than this share
+#: of it is measured again from that pace (:meth:`DenseMethod._steady`). (``docs/tuning.md#stray``)
 STRAY = 0.15
-#: Fixed-point steps of a row's flow by the camera model (:meth:`DenseMethod._row_model`):
-#: each shrinks the error by ``v_y`` times a row's time, 0.44 in a tilt of 44 % of the
-#: height a frame at readout 1.0 (the fastest of ``benchmarks/edges.py``): 7 leave 0.3 %.
+#: Fixed-point steps of a row's flow by the camera model (:meth:`DenseMethod._row_model`).
+#: (``docs/tuning.md#row_steps``)
 ROW_STEPS = 7
 
 
@@ -233,7 +230,7 @@ class DenseMethod(SafeField, ModelChoice):
 
         The polished flow (``detail='polished'``) is smooth enough to pass a spinning
         wheel's flow as consistent, which then went uncorrected (the simulated wheel
-        0.13x -> 0.29x; ``docs/measurements.md``): once a frame had an object spinning or
+        0.13x -> 0.29x; ``docs/history/measurements.md``): once a frame had an object spinning or
         kept whole, the flows that follow are the full ones. (A vibrating clip's are
         too: :data:`~unjello.motion.dense.vibration.VIBRATION` sets them.)
         """
@@ -286,7 +283,7 @@ class DenseMethod(SafeField, ModelChoice):
         ``expect``), which is used where it matches the pair better: over a flat sky with
         a pole, the phase correlation and DIS lost a pan of 40 % of the width a frame that
         the pairs on either side followed; with the pole nearer, DIS followed the pole,
-        all that the two frames shared (``docs/measurements.md``).
+        all that the two frames shared (``docs/history/measurements.md``).
         """
         dt = cur.start - prev.start
         if dt <= 0:

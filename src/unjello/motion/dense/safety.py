@@ -39,25 +39,19 @@ if TYPE_CHECKING:
 
 __all__ = ["FOLD_WARNING", "DETAIL", "KEEP_WHOLE", "KEEP_ISLAND", "DenseFrame", "SafeField"]
 
-#: A frame whose map folds or tears in blobs over more than this share of its pixels is
-#: reported: the real spinners clip's torn frames show 0.2-0.6 %, the research pairs at
-#: most 0.15 %, the Carla town sequence 0.03 % (``docs/measurements.md``).
+#: A frame whose map folds or tears in blobs over more than this share of its pixels is reported.
+#: (``docs/tuning.md#fold_warning``)
 FOLD_WARNING = 0.002
 
-#: A frame whose map folds in blobs over more than ``KEEP_WHOLE`` of its pixels has them
-#: given the motion around them, with the whole object they are in
-#: (:func:`~unjello.motion.objects.folds.keep_whole`); above ``KEEP_ISLAND`` only those inside
-#: an object that moves on its own within the frame (an island). Measured: the spinners'
-#: frames fold 0.03-0.58 %, the research pairs' at most 0.15 %; keeping every fold above
-#: 0.05 % whole cost the pairs 0.9 dB, islands above 0.1 % their first frames 0.09 dB
-#: (their highest folds 0.147 %; the spinners' frame 4, torn, 0.18 %: a narrow gap)
-#: (``docs/measurements.md``).
+#: A frame whose map folds in blobs over more than ``KEEP_WHOLE`` of its pixels has them given the
+#: motion around them, with the whole object they are in
+#: (:func:`~unjello.motion.objects.folds.keep_whole`); above ``KEEP_ISLAND`` only those inside an
+#: object that moves on its own within the frame (an island). (``docs/tuning.md#keep_whole``)
 KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
 
-#: Grey levels between the darkest and the brightest pixel of a 5 x 5 window below which
-#: the picture shows no detail there: a fold over flat sky draws nothing and is not
-#: reported (:func:`_on_detail`). The simulated rocket's sky spans 2 (median), 5 (75th
-#: percentile).
+#: Grey levels between the darkest and the brightest pixel of a 5 x 5 window below which the picture
+#: shows no detail there: a fold over flat sky draws nothing and is not reported
+#: (:func:`_on_detail`). (``docs/tuning.md#detail``)
 DETAIL = 10.0
 
 #: A neighbour whose flow carries a pixel more than this many pixels (of the working

@@ -27,56 +27,38 @@ __all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEX
            "SIGNAL", "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test",
            "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit"]
 
-#: Settings for vibration near or above the frame rate (drone "jello"): a symmetric window
-#: of about one beat period, a trajectory that may bend at scanline resolution, six
-#: sinusoids of free frequency, DIS medium's own refinement at full resolution
-#: (``docs/tuning.md``; the polished flow lost 0.06x on the simulated drone jello:
-#: ``docs/measurements.md``).
+#: Settings for vibration near or above the frame rate (drone "jello").
+#: (``docs/tuning.md#vibration``)
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
                              "refinement": None, "detail": "full"}
 
-#: The highest vibration frequency the model looks for, in cycles per frame interval:
-#: 100 Hz at 24 fps. With 1.6 (48 Hz at 30 fps), 12 of the matrix's 34 jello cases
-#: vibrated faster and kept most of their jello (``docs/matrix.md``).
+#: The highest vibration frequency the model looks for, in cycles per frame interval: 100 Hz at 24
+#: fps. (``docs/tuning.md#max_cycles``)
 MAX_CYCLES = 4.5
 
-#: The wobble test (:func:`wobble_test`): vibration makes up at least this share of the
-#: non-steady row flow that both halves of the frame share, and its wobble is at least
-#: ``SIGNAL`` times what the halves do not share (the measurement's noise). On the
-#: simulated matrix (rows weighed as the solve weighs them): the jello cases 0.47-1.00;
-#: every other case whose wobble stands above its noise, hand shake, walks, whip pans
-#: and cuts, 0.31 at most, but a tilt behind poles over a flat sky (1.00, which the model
-#: comparison turns down); still and steady clips' wobble is noise, 0.0-2.5 times it.
+#: The wobble test (:func:`wobble_test`): vibration makes up at least this share of the non-steady
+#: row flow that both halves of the frame share, and its wobble is at least ``SIGNAL`` times what
+#: the halves do not share (the measurement's noise). (``docs/tuning.md#share``)
 SHARE, SIGNAL = 0.4, 3.0
 
-#: The model comparison (:func:`choose_model`): the vibration model, fitted to the row
-#: flows of one half of the frame, predicts the other half's with at most this share of
-#: the smooth model's error. On the matrix: the jello cases 0.03-0.56 (two at 0.77 and
-#: 1.0 the vibration model barely helps); the tilt behind poles over a flat sky 0.74,
-#: corrected as vibration 12x worse than uncorrected (``docs/matrix.md``).
+#: The model comparison (:func:`choose_model`): the vibration model, fitted to the row flows of one
+#: half of the frame, predicts the other half's with at most this share of the smooth model's error.
+#: (``docs/tuning.md#prefer``)
 PREFER = 0.7
-#: ... and the smooth model misses the held-out half by at least this much (px): below,
-#: what the vibration model would add is too small to see (a drone after landing: the
-#: smooth model missed by 0.03 px, and the tests, relative, passed on the noise).
+#: ... and the smooth model misses the held-out half by at least this much (px).
+#: (``docs/tuning.md#visible``)
 VISIBLE = 0.1
 
-# A wobble above this one: row flows that wobble by more than 3 % of the height between
-# frame pairs are flow that failed, not a mount's vibration (simulated jello 0.5-1.3 %;
-# a steady 25 %-a-frame pan behind flat poles whose flow failed 6.9 %, and corrected as
-# vibration it came out 2.5x worse than uncorrected: ``docs/measurements.md``).
+#: A wobble above this one. (``docs/tuning.md#_wobble_max``)
 _WOBBLE_MAX = 0.03
 
-# Frame pairs enter the vibration test only where both frames have this grey-level
-# standard deviation (0-255): the noise of a fade from black gave a simulated pan a wobble
-# of 0.42 % and the Big Buck Bunny trailer 3.3 %, both "vibration". The test waits for
-# ``probe`` such pairs, but no longer than this many times ``probe`` pairs in all.
+#: Frame pairs enter the vibration test only where both frames have this grey-level standard
+#: deviation (0-255): the noise of a fade from black gave a simulated pan a wobble of 0.42 % and the
+#: Big Buck Bunny trailer 3.3 %, both "vibration". (``docs/tuning.md#probe_contrast``)
 PROBE_CONTRAST, PROBE_WAIT = 6.0, 2
 
-# Only pixels of two-dimensional texture enter the test (:func:`textured`): along an edge
-# the flow is not measured but filled in (the aperture problem). A pan over a flat sky
-# with flat poles passing in front (sky rows: only the poles' upright edges) wobbled
-# 1.39 % of the height in the vertical flow, was corrected as vibration, and came out 12x
-# worse than uncorrected; with them left out, 0 (``docs/measurements.md``).
+#: Only pixels of two-dimensional texture enter the test (:func:`textured`): along an edge the flow
+#: is not measured but filled in (the aperture problem). (``docs/tuning.md#probe_texture``)
 PROBE_TEXTURE = 0.05
 
 

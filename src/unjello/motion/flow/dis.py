@@ -32,40 +32,31 @@ PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "medium": cv2.DISOPTICAL_FLOW_PRESET_MEDIUM}
 
 
-# Up to this width the medium preset estimates flow at full resolution, so small frames
-# get flow as fine as large ones (``docs/tuning.md``).
+#: Up to this width the medium preset estimates flow at full resolution, so small frames
+#: get flow as fine as large ones (``docs/tuning.md``).
 _FULL_RES_WIDTH = 480
 
 #: A row's flow weighs the share of its pixels within this many pixels of it
 #: (:func:`row_flows`' ``agree``; the dense method's row equations).
 ROW_AGREE = 1.5
-#: Motion of at least this share of the frame's width per frame counts as large: more
-#: than about two pixels of DIS's coarsest level (an eighth to a sixteenth of the copy).
-#: DIS, starting from zero flow there, may then lock onto an alias of repetitive texture,
-#: or follow a few high-contrast edges (flat poles passing in front of a flat sky) and
-#: lose the scene's own motion; a second run starts from the frame's global translation
-#: (:func:`global_shifts`). At 12 % a pan of 10 % behind poles was lost (``docs/tuning.md``).
+#: Motion of at least this share of the frame's width per frame counts as large: more than about two
+#: pixels of DIS's coarsest level (an eighth to a sixteenth of the copy).
+#: (``docs/tuning.md#large_motion``)
 LARGE_MOTION = 0.05
-#: The width of the copies the global translation is measured on, and the phase
-#: correlation response below which the second run must also match the frame better as
-#: a whole (a lower mean patch cost) to be used at all. The response alone does not
-#: tell a right shift from a wrong one: over a flat sky with one object leaving the
-#: frame, near-right shifts came at -0.15 and 0.03 (DIS from zero gave -8 px where the scene
-#: moved -128) and a wrong one at 0.13; the real spinners' wrong shift of 27 px at 0.02.
-#: The mean cost tells them apart: 7.3 -> 1.7 and 16.4 -> 11.3 where right, 7.9 -> 8.8
-#: and 7.4 -> 8.1 where wrong (``docs/tuning.md``).
+#: The width of the copies the global translation is measured on, and the phase correlation response
+#: below which the second run must also match the frame better as a whole (a lower mean patch cost)
+#: to be used at all. (``docs/tuning.md#_shift_width``)
 _SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
-# Side (px) of the patches whose photometric cost picks between the two runs.
+#: Side (px) of the patches whose photometric cost picks between the two runs.
 _PICK_PATCH = 15
 
-#: A cheaper flow explains a frame pair (:func:`explains`) unless more than this share of
-#: its pixels land inside the other frame on grey levels unlike their own (blurred, by
-#: ``_PHOTO_LEVEL`` or four times the pair's median difference). The polished flow
-#: misses so 10.8-13.6 % of the real spinners' pairs and 11-15 % of simulated spinning
-#: wheels and propellers; at most 1.2 % of the real phone, GoPro and Carla clips' pairs,
-#: 0.9 % of simulated pans, shake, parallax and moving objects; the Fastec research pairs,
-#: fast pans over near objects, 0.2-11 % (``docs/measurements.md``).
+#: A cheaper flow explains a frame pair (:func:`explains`) unless more than this share of its pixels
+#: land inside the other frame on grey levels unlike their own (blurred, by ``_PHOTO_LEVEL`` or four
+#: times the pair's median difference). (``docs/tuning.md#photo_miss``)
 PHOTO_MISS = 0.05
+
+#: ... a pixel misses where its grey level is off by more than this or four times the
+#: pair's median difference (0-255, blurred by a Gaussian of 2 px).
 _PHOTO_LEVEL = 12.0
 
 
@@ -135,7 +126,7 @@ def _engine(preset: str, finest_scale: int | None, refinement: int | None,
     A DIS instance keeps its pyramids and patch buffers from call to call; made anew
     for every frame pair, each flow allocated them again, and on a pool of threads the
     allocator handed the memory back and faulted it in again every frame
-    (``docs/measurements.md``). One instance keeps no state between pairs as long as it
+    (``docs/history/measurements.md``). One instance keeps no state between pairs as long as it
     is always, or never, given a starting flow (``started``): once given one, OpenCV's
     DIS uses it again on later calls without one, so the two kinds of call get their own.
     """
@@ -161,8 +152,12 @@ def _polisher(iterations: int) -> cv2.VariationalRefinement:
     return cache[iterations]
 
 
+#: The flow is measured on frames downscaled to at most this width (0: full size).
+FLOW_WIDTH = 960
+
+
 def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
-                 max_width: int = 960, finest_scale: int | None = None,
+                 max_width: int = FLOW_WIDTH, finest_scale: int | None = None,
                  refinement: int | None = None, polish: int = 0,
                  expect: np.ndarray | None = None, entering: bool = False) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
@@ -197,7 +192,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
         Then this many fixed-point iterations of variational refinement
         (``cv2.VariationalRefinement``) on the (downscaled) frames' full resolution: DIS
         at finest scale 1 so polished costs half of DIS at scale 0, for 0.1 dB on the
-        research pairs (``docs/measurements.md``).
+        research pairs (``docs/history/measurements.md``).
     expect : ndarray of shape (2,), optional
         A translation ``(dx, dy)`` (full-resolution pixels) to start DIS from as well.
     entering : bool

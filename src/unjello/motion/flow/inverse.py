@@ -17,7 +17,15 @@ from ...timing import pixel_grid
 __all__ = ["invert_flow", "row_modes"]
 
 
-def row_modes(values: np.ndarray, bin_px: float = 2.0, band: int = 9) -> np.ndarray:
+#: Width (px) of the histogram bins a row's dominant motion is read from.
+MODE_BIN = 2.0
+
+
+#: Rows around each row whose flows enter its histogram.
+MODE_BAND = 9
+
+
+def row_modes(values: np.ndarray, bin_px: float = MODE_BIN, band: int = MODE_BAND) -> np.ndarray:
     """Each row's most common ``(dx, dy)`` in a flow (or samples of its columns).
 
     Per component, a histogram of ``bin_px`` bins over ``band`` rows around each row;
@@ -60,7 +68,11 @@ def row_modes(values: np.ndarray, bin_px: float = 2.0, band: int = 9) -> np.ndar
     return np.repeat(out, step, axis=0)[:h]
 
 
-def invert_flow(flow: np.ndarray, iterations: int = 3,
+#: Fixed-point iterations of a flow's inverse.
+INVERT_ITERATIONS = 3
+
+
+def invert_flow(flow: np.ndarray, iterations: int = INVERT_ITERATIONS,
                 images: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Invert a dense flow by the fixed point ``G(q) = -F(q + G(q))``.
 

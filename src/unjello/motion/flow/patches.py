@@ -20,13 +20,12 @@ __all__ = ["patch_cost", "map_cost", "costlier", "unmatched_entering", "refine_m
 #: Where content enters the frame (:func:`unmatched_entering`), a flow is kept only if its
 #: patch cost is at most this many times the median cost of the rest of the frame's ...
 ENTER_COST = 10.0
-#: ... and only on two-dimensional texture: the patch mean of the structure tensor's
-#: smaller eigenvalue (:func:`cv2.cornerMinEigenVal`, 5 px) at least this share of its
-#: 90th percentile in the frame. Flat sky or wall matches any flow.
+#: ... and only on two-dimensional texture: the patch mean of the structure tensor's smaller
+#: eigenvalue (:func:`cv2.cornerMinEigenVal`, 5 px) at least this share of its 90th percentile in
+#: the frame. (``docs/tuning.md#enter_flat``)
 ENTER_FLAT = 0.02
-#: ... and only where the flow outside the band moves as the translation does (its
-#: median within this share of it, 2 px at least): a phase correlation on a fast
-#: vertical pan (readout 1.0) found +87 px where the rows moved -47.
+#: ... and only where the flow outside the band moves as the translation does (its median within
+#: this share of it, 2 px at least). (``docs/tuning.md#enter_agree``)
 ENTER_AGREE = 0.1
 
 
@@ -74,7 +73,7 @@ def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
     confirms the translation (:data:`ENTER_AGREE`): in a fast diagonal pan DIS
     carried the rows entering at the top onto whatever looked alike in ``other`` (a
     flat wall at -6 px where the frame moved -70), and its own inverse passed them as
-    consistent (``docs/measurements.md``).
+    consistent (``docs/history/measurements.md``).
 
     Parameters
     ----------
@@ -110,9 +109,17 @@ def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
     return band & ((cost > level) | flat)
 
 
+#: A motion boundary: the flow varies by more than this (px) within 9 x 9 pixels.
+EDGE_SPREAD = 2.0
+
+
+#: Side (px) of the patch a flow borrowed across a motion boundary is scored over.
+EDGE_WINDOW = 5
+
+
 def refine_motion_edges(cur: np.ndarray, prev: np.ndarray, flow: np.ndarray,
-                        spread: float = 2.0, radii: tuple[int, ...] = (3, 8),
-                        window: int = 5) -> np.ndarray:
+                        spread: float = EDGE_SPREAD, radii: tuple[int, ...] = (3, 8),
+                        window: int = EDGE_WINDOW) -> np.ndarray:
     """Give pixels near a motion boundary the flow of the side they belong to.
 
     DIS smooths the flow across the edge of a nearer layer or a moving object, so the

@@ -17,23 +17,17 @@ import numpy as np
 
 __all__ = ["phase_correlate", "PEAKS", "OVERLAP", "BETTER", "KEPT", "WHITEN"]
 
-#: The padded correlation's strongest local peaks that are checked. Over a flat sky with
-#: a lattice tower leaving and another entering (a 40 % pan), the strongest peak was the
-#: towers taken for each other (+166 px, overlap cost 11.8 grey levels) and the scene's
-#: own motion (-128, cost 0.04) the second.
+#: The padded correlation's strongest local peaks that are checked. (``docs/tuning.md#peaks``)
 PEAKS = 8
 #: A shift is checked only where the copies still overlap by this share of their width
 #: and of their height.
 OVERLAP = 0.25
-#: The cyclic peak is kept unless another lays the copies on each other where they
-#: overlap this many times better (a mean absolute difference under this share of its
-#: own): where it was right, it stays exactly as it was.
+#: The cyclic peak is kept unless another lays the copies on each other where they overlap this many
+#: times better (a mean absolute difference under this share of its own).
+#: (``docs/tuning.md#better``)
 BETTER = 0.5
-#: The share of the overlap's pixels, those that match best, whose mean absolute
-#: difference scores a shift: a near object moving on its own may cover the rest. Over
-#: all of them, a rocket's pan of 80 px a frame behind flat bright poles 1.3x as near
-#: scored 16.3 grey levels at the scene's motion and 3.8 at the poles' (105 px); over
-#: the best 75 %, 0.00 and 0.57.
+#: The share of the overlap's pixels, those that match best, whose mean absolute difference scores a
+#: shift: a near object moving on its own may cover the rest. (``docs/tuning.md#kept``)
 KEPT = 0.75
 #: The padded correlation's spectrum is divided by its magnitude plus this share of the
 #: magnitude's mean (:func:`_padded_surface`).

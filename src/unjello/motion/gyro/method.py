@@ -12,7 +12,7 @@ reference time ``t_ref`` of its frame, lies at
 with ``Theta`` the integral of the angular rate (first order in the small rotation
 within a frame), ``M`` the mapping from the gyro's axes to the camera's and ``K`` the
 pinhole intrinsics (focal ``f``, centre of the frame). The per-pixel displacement
-``s - p`` is what the dense warp applies (:func:`unjello.warp.warper.field_maps`): one
+``s - p`` is what the dense warp applies (:func:`unjello.warp.maps.field_maps`): one
 homography per scanline, which handles roll and the keystone of pitch and yaw, not
 only the translation of the paper's model. Through a fisheye lens
 (``GyroConfig.distortion``) the rotation acts on the undistorted rays,

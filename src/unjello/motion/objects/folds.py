@@ -38,14 +38,13 @@ FOLD, TEAR = 0.25, 4.0
 #: (:func:`keep_whole`).
 ISLAND_FAILED = 0.2
 
+#: A piece of changing motion that touches the frame's border along more than this share
+#: of its length is the view itself (parallax of a road or a wall), not an object.
 _BORDER_CONTACT = 0.08
 
-#: An object that moves on its own is one the flow cannot follow (a spinner) only where
-#: the flow carries at least this share of its pixels, in blobs, onto grey levels
-#: unlike their own on every side (``missed`` of :func:`followed_objects`). Measured: the
-#: real spinners' objects 0.08-0.57 (with both neighbours 0.08-0.35); poles passing in
-#: front of a pan at 2.2 times its speed (parallax) at most 0.016 with both neighbours,
-#: 0.02-0.41 with one (``docs/measurements.md``).
+#: An object that moves on its own is one the flow cannot follow (a spinner) only where the flow
+#: carries at least this share of its pixels, in blobs, onto grey levels unlike their own on every
+#: side (``missed`` of :func:`followed_objects`). (``docs/tuning.md#island_missed``)
 ISLAND_MISSED = 0.05
 
 #: Distance (px, at the working resolution) over which failed flow joins a blob's region
@@ -59,10 +58,9 @@ CHANGE_LEVEL = 12.0
 #: frames: the whip pans over texture lost 0.003-0.007x with such islands kept whole.
 CHANGE_PAN = 0.05
 
-#: What the camera's motion weighs in a kept region's fill against its surroundings'
-#: (their Gaussian weight: 0.5 at the region's edge, 1e-4 about four ``reach`` inside).
-#: Measured: 0.02 let the lagging camera model into the whip pans' patches (brick
-#: 0.060x -> 0.066x); 1e-4 keeps them as they were and the spinners' creases away.
+#: What the camera's motion weighs in a kept region's fill against its surroundings' (their Gaussian
+#: weight: 0.5 at the region's edge, 1e-4 about four ``reach`` inside).
+#: (``docs/tuning.md#_camera_weight``)
 _CAMERA_WEIGHT = 1e-4
 
 
@@ -130,8 +128,21 @@ def fill_hull(out: np.ndarray, piece: np.ndarray, value: int = 1) -> None:
     cv2.fillConvexPoly(out, cv2.convexHull(np.stack([xs, ys], axis=1).astype(np.int32)), value)
 
 
-def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: float = 0.2,
-                 most: int = 3, followed: np.ndarray | None = None,
+#: A cluster of failed flow is an object where it covers at least this share of the frame,
+BLOB_SHARE = 0.003
+
+
+#: ... with at least this share of its pixels failed ...
+BLOB_DENSITY = 0.2
+
+
+#: ... and only this many of the largest are candidates.
+BLOB_MOST = 3
+
+
+def failed_blobs(unreliable: np.ndarray, *, min_share: float = BLOB_SHARE,
+                 density: float = BLOB_DENSITY, most: int = BLOB_MOST,
+                 followed: np.ndarray | None = None,
                  missed: np.ndarray | None = None) -> np.ndarray:
     """Objects where the flow failed its check on many pixels (bool, shape (h, w)).
 
@@ -173,11 +184,19 @@ def failed_blobs(unreliable: np.ndarray, *, min_share: float = 0.003, density: f
     return out.astype(bool)
 
 
+#: Width (px, a Gaussian's) of the blend from a kept region to the field around it.
+FEATHER = 12.0
+
+
+#: A kept region's blend is repeated at most this many times while folds remain.
+PASSES = 3
+
+
 def keep_whole(field: np.ndarray, camera: np.ndarray, unreliable: np.ndarray, *,
                changing: np.ndarray | None = None, islands_only: bool = False,
                carried: np.ndarray | None = None, from_folds: bool = True,
                followed: np.ndarray | None = None, reach: int = REACH,
-               feather: float = 12.0, passes: int = 3
+               feather: float = FEATHER, passes: int = PASSES
                ) -> tuple[np.ndarray, float, float, np.ndarray]:
     """Give the places where the map folds or tears in blobs the motion around them.
 

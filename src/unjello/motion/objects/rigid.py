@@ -31,9 +31,8 @@ MOVING = 10.0
 #: A drift's cost is raised by this share of itself at the search's reach, in proportion
 #: to its speed (:func:`fit_drift`): among drifts that match alike, the slowest.
 DRIFT_PENALTY = 0.15
-#: The drifts searched on the shrunk copy are at most this many a side (then further
-#: apart than its pixels, on a copy blurred to match: a small object's own copy is barely
-#: shrunk, and a grid a pixel apart up to a sixth of the width held 26 000 drifts).
+#: The drifts searched on the shrunk copy are at most this many a side (then further apart than its
+#: pixels, on a copy blurred to match. (``docs/tuning.md#grid_side``)
 GRID_SIDE = 41
 
 Track = Callable[[np.ndarray], np.ndarray]
@@ -88,7 +87,7 @@ class PathTrack:
     thousands of times a frame (:func:`predict`'s fixed point, for every candidate):
     :meth:`complex` gives it as ``x + iy`` with one interpolation, where a general track
     takes two and a stack (a 320x180 pole clip's correction 0.29 -> 0.22 CPU s a frame, the
-    same output; ``docs/measurements.md``).
+    same output; ``docs/history/measurements.md``).
     """
 
     def __init__(self, times: np.ndarray, path: np.ndarray,
@@ -168,9 +167,13 @@ def _complex_at(track: Track, t: np.ndarray) -> np.ndarray:
     return p[..., 0] + 1j * p[..., 1]
 
 
+#: Fixed-point iterations that find where a rigid motion, imaged row by row, puts a pixel.
+PREDICT_ITERATIONS = 5
+
+
 def predict(pts: np.ndarray, t_s: np.ndarray, centre: np.ndarray, omega: np.ndarray,
              track: Track, t_ref: float, offset: float, row_time: float,
-             iterations: int = 5, drift: np.ndarray | None = None) -> np.ndarray:
+             iterations: int = PREDICT_ITERATIONS, drift: np.ndarray | None = None) -> np.ndarray:
     """Where points ``pts`` (n, 2), imaged at ``t_s``, appear in a frame starting at ``offset``.
 
     For every rotation of ``omega`` (m,) about ``centre`` (m, 2), carried by ``track``
@@ -224,7 +227,7 @@ def sample(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def costs(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]], pts: np.ndarray,
            centre: np.ndarray, omega: np.ndarray, track: Track, t_ref: float,
-           row_time: float, iterations: int = 5, drift: np.ndarray | None = None
+           row_time: float, iterations: int = PREDICT_ITERATIONS, drift: np.ndarray | None = None
            ) -> np.ndarray:
     """Return each point's truncated difference with its predictions, shape (m, n).
 
@@ -363,10 +366,18 @@ def prepare(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
 STEPS = np.array([(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
 
 
+#: An object's radius (px) on the shrunk copy its rigid motions are first scored on.
+COARSE_RADIUS = 16.0
+
+
+#: A drift is refined only where it explains the object this many times better than none.
+REFINE_GAIN = 1.15
+
+
 def fit_drift(image: np.ndarray, others: Sequence[tuple[np.ndarray, float]],
               region: np.ndarray, track: Track, t_ref: float, readout: float, *,
-              max_drift: float | None = None, coarse_radius: float = 16.0,
-              min_gain: float = 1.15, along: np.ndarray | None = None) -> Spin | None:
+              max_drift: float | None = None, coarse_radius: float = COARSE_RADIUS,
+              min_gain: float = REFINE_GAIN, along: np.ndarray | None = None) -> Spin | None:
     """Fit ``region`` a velocity of its own on top of its surroundings': a near object.
 
     A pole passing close in front of the camera moves faster than the scene behind it

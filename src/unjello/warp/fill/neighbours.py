@@ -200,7 +200,13 @@ def fill_from_neighbours(out: np.ndarray, parts: list, planes: list[np.ndarray]
     return out
 
 
-def outside_share(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps, step: int = 8) -> float:
+#: The share of a frame its maps take from outside is counted on every this-many-th
+#: pixel of every this-many-th row.
+OUTSIDE_STEP = 8
+
+
+def outside_share(maps: tuple[np.ndarray, np.ndarray] | PlaneMaps,
+                  step: int = OUTSIDE_STEP) -> float:
     """Share of the pixels of backward ``maps`` whose source lies beyond the frame's edge.
 
     Counted on every ``step``-th pixel of every ``step``-th row (a 1080p frame's maps

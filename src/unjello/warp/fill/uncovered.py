@@ -23,17 +23,19 @@ __all__ = ["uncovered", "uncovered_sources", "confirmed", "SETTLED", "REACH", "U
 SETTLED = 2.0
 #: Farthest (pixels of the maps' grid) that an uncovered pixel's background is looked for.
 REACH = 12
-#: Rows whose displacement departs from their median by more than this share of it (the
-#: median departure) are left alone: where the background itself moves unevenly (forward
-#: motion, depth), its displacement beside an object is no guide to the one behind it.
+#: Rows whose displacement departs from their median by more than this share of it (the median
+#: departure) are left alone. (``docs/tuning.md#uniform``)
 UNIFORM = 0.1
 #: Fewest pixels of the grid, side by side, taken as uncovered background.
 GROUP = 6
 #: Largest grey-level difference (over channels) between what the two neighbours show
 #: at an uncovered pixel for them to agree on its background (:func:`confirmed`).
 AGREE = 20.0
-_DIRECTIONS = np.array([(0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1)])
-_STEPS = np.array([1, 2, 3, 4, 6, 8, REACH])
+#: The eight directions, and the steps (px) along each, searched for the background
+#: beside an uncovered pixel.
+_DIRECTIONS, _STEPS = (
+    np.array([(0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1)]),
+    np.array([1, 2, 3, 4, 6, 8, REACH]))
 
 
 def uncovered(maps: tuple[np.ndarray, np.ndarray], field: np.ndarray, flows: list[np.ndarray],
