@@ -75,7 +75,7 @@ _WHERE = {
     "ReadoutEstimate": ".readout.footage",
     "estimate_readout": ".readout.footage",
     "estimate_readout_file": ".readout.footage",
-    "readout_from_flicker": ".readout.footage",
+    "readout_from_flicker": ".readout.flicker",
     "Motion": ".simulate",
     "gyro_samples": ".simulate",
     "simulate": ".simulate",

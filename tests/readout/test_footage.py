@@ -3,7 +3,8 @@ import pytest
 
 from unjello.errors import InputError
 from unjello.io.frames import read_image
-from unjello.readout.footage import estimate_readout, readout_from_flicker
+from unjello.readout.flicker import readout_from_flicker
+from unjello.readout.footage import estimate_readout
 from unjello.simulate import Motion, simulate
 from unjello.timing import SensorTiming
 

@@ -33,7 +33,7 @@ def readout(image: Path, frequency: float, fps: float | None, direction: str,
             as_json: bool) -> None:
     """Measure the readout time from one frame of a light flickering at a known frequency."""
     from ..io.frames import read_image
-    from ..readout.footage import readout_from_flicker
+    from ..readout.flicker import readout_from_flicker
 
     if not image.exists():
         raise UnjelloError(f"{image}: no such file")
