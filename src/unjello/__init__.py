@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from .run.batch import run_batch
     from .clip import ResolvedTiming, resolve_timing
     from .config import CorrectionConfig
     from .errors import InputError, MissingExtraError, OutputError, SettingsError, UnjelloError
@@ -29,13 +28,14 @@ if TYPE_CHECKING:
     from .io.video import EncodeOptions
     from .metrics import evaluate
     from .motion.dense.method import DenseConfig, DenseMethod
-    from .motion.paper.global_motion import BlockMatchConfig
     from .motion.gyro.method import GyroMethod
+    from .motion.paper.global_motion import BlockMatchConfig
     from .motion.paper.method import PaperConfig, PaperMethod
     from .motion.paper.refine import RefineConfig
     from .pipeline import Corrector, correct_frames, correct_video
     from .readout.flicker import readout_from_flicker
     from .readout.footage import ReadoutEstimate, estimate_readout, estimate_readout_file
+    from .run.batch import run_batch
     from .simulate import Motion, gyro_samples, simulate, simulate_clip
     from .timing import SensorTiming, parse_readout
     from .trajectory import FrameMotion, Trajectory
