@@ -142,7 +142,7 @@ def test_the_model_choice_does_not_depend_on_how_many_flows_were_done(scene):
                 self.queued = []
             return job
 
-    sim = list(simulate(scene, Motion("jello"), SensorTiming(1.0), 24, size=(256, 160)))
+    sim = list(simulate(scene, Motion("jello"), SensorTiming(1.0), 14, size=(192, 128)))
     grey = [s.rolling.mean(axis=2).astype(np.uint8) for s in sim]
     runs = []
     for pool in (None, Batches()):
