@@ -1,6 +1,7 @@
 """The paper's stage V.D: a frame moved to where each scanline (or pixel) belongs.
 
-The stages of :class:`~unjello.warp.warper.PictureWarper`, in order:
+The stages of :class:`~unjello.warp.warper.PictureWarper`, in the order its ``__call__``
+calls them:
 
 1. :mod:`~unjello.warp.maps`: backward maps from the frame's motion
    (:func:`~unjello.warp.maps.field_maps` for a per-pixel field,

@@ -293,24 +293,14 @@ class PictureWarper:
         d = self.direction
         fill: Fill = "black" if self.fill == "black" else "nearest"
         h, w = to_top_bottom(planes[0], d).shape[:2]
+        # 1. A per-pixel motion's backward maps, on its field's grid.
         maps = frame_maps(motion, h, w)[0] if motion.field is not None else None
+        # 2. What the frame did not see, from its neighbours (with ``fill='nearest'``).
+        fills = (self._neighbour_fill(planes, motion, maps, around, (h, w))
+                 if maps is not None and around and fill == "nearest" else None)
+        # 3. Each plane warped: per scanline, or through its maps (made band by band), then
+        # filled.
         sized: dict[tuple[int, int], tuple[np.ndarray, np.ndarray] | PlaneMaps] = {}
-        fills = None
-        if maps is not None and around and fill == "nearest":
-            have = [(k, pic, flow) for k, flow in motion.neighbours
-                    if (pic := around.get(k)) is not None]
-            if have:  # the background nearer objects uncovered too, where nothing is composed
-                plain = self.undistort is None and motion.reframe.identity
-                fills = NeighbourFill(
-                    maps, [([to_top_bottom(p, d) for p in pic], flow) for _, pic, flow in have],
-                    [k for k, _, _ in have], self.timing,
-                    grid_field(motion.field, maps[0].shape, (h, w))
-                    if plain and motion.field is not None else None,
-                    own=[to_top_bottom(p, d) for p in planes],
-                    lone=bool(motion.front),
-                    shown=shown_objects(motion.front, maps[0].shape, (h, w)),
-                    further=[None if (f := around.get(2 * k)) is None else
-                             [to_top_bottom(p, d) for p in f] for k, _, _ in have])
         out = []
         for i, plane in enumerate(planes):
             tb = to_top_bottom(plane, d)
@@ -320,12 +310,7 @@ class PictureWarper:
                     self.undistort is None and motion.reframe.identity)):  # per scanline
                 if i == 0:
                     self.unseen = _unseen_rows(motion.displacement, w)
-                if self.warp == "splat":
-                    res, _ = splat(tb, _plane_displacement(motion, ph, pw, h, w), fill=fill)
-                    if self.undistort is not None:  # a forward splat: a second resampling
-                        res = apply_maps(res, self._lens(ph, pw, scale))
-                else:
-                    res = shift_planes(tb, _plane_displacement(motion, ph, pw, h, w), fill)
+                res = self._per_scanline(tb, motion, (h, w), scale, fill)
             else:
                 if (ph, pw) not in sized:  # U and V share their maps
                     sized[(ph, pw)] = self._plane_maps(maps, motion, ph, pw, (h, w), scale)
@@ -343,6 +328,40 @@ class PictureWarper:
                         plane_maps)
             out.append(from_top_bottom(res, d))
         return out
+
+    def _neighbour_fill(self, planes: list[np.ndarray], motion: FrameMotion,
+                        maps: tuple[np.ndarray, np.ndarray],
+                        around: dict[int, list[np.ndarray] | None],
+                        frame: tuple[int, int]) -> NeighbourFill | None:
+        """Return the fill from the neighbours the motion has flows to and ``around`` holds."""
+        d, (h, w) = self.direction, frame
+        have = [(k, pic, flow) for k, flow in motion.neighbours
+                if (pic := around.get(k)) is not None]
+        if not have:
+            return None
+        # The background nearer objects uncovered too, where nothing is composed.
+        plain = self.undistort is None and motion.reframe.identity
+        return NeighbourFill(
+            maps, [([to_top_bottom(p, d) for p in pic], flow) for _, pic, flow in have],
+            [k for k, _, _ in have], self.timing,
+            grid_field(motion.field, maps[0].shape, (h, w))
+            if plain and motion.field is not None else None,
+            own=[to_top_bottom(p, d) for p in planes],
+            lone=bool(motion.front),
+            shown=shown_objects(motion.front, maps[0].shape, (h, w)),
+            further=[None if (f := around.get(2 * k)) is None else
+                     [to_top_bottom(p, d) for p in f] for k, _, _ in have])
+
+    def _per_scanline(self, tb: np.ndarray, motion: FrameMotion, frame: tuple[int, int],
+                      scale: float, fill: Fill) -> np.ndarray:
+        """Return a top-bottom plane warped by a per-scanline motion, without maps."""
+        ph, pw = tb.shape[:2]
+        if self.warp == "splat":
+            res, _ = splat(tb, _plane_displacement(motion, ph, pw, *frame), fill=fill)
+            if self.undistort is not None:  # a forward splat: a second resampling
+                res = apply_maps(res, self._lens(ph, pw, scale))
+            return res
+        return shift_planes(tb, _plane_displacement(motion, ph, pw, *frame), fill)
 
     def _plane_maps(self, maps: tuple[np.ndarray, np.ndarray] | None, motion: FrameMotion,
                     ph: int, pw: int, frame: tuple[int, int], scale: float

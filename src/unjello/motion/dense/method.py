@@ -112,6 +112,30 @@ def _translation(flow: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return median_along(sub, 0).astype(np.float64)
 
 
+@dataclasses.dataclass(frozen=True)
+class _CameraRows:
+    """A frame's camera motion per row of its working copy (times from the frame's start)."""
+
+    grid_t: np.ndarray
+    t_rows: np.ndarray
+    t_ref: float
+    path: PathTrack
+    c_at: Callable[[np.ndarray], np.ndarray]
+    cam_rows: np.ndarray  # the path at each row's time
+    cam_disp: np.ndarray  # ... less the path at the reference time
+    velocity: np.ndarray  # the path's velocity plus the row velocity's
+    u_rows: np.ndarray  # the row velocity (per frame interval)
+    whole: np.ndarray  # eq. 26 per scanline: the displacement with the row velocity's
+    scale: np.ndarray  # full-frame pixels per working-copy pixel (x, y)
+    rows_full: np.ndarray  # each full-frame row's position in the working copy
+
+    def full(self, values: np.ndarray) -> np.ndarray:
+        """Per-row ``values`` (working copy) at every full-frame row, in its pixels."""
+        h = self.t_rows.shape[0]
+        return np.stack([np.interp(self.rows_full, np.arange(h), values[:, k])
+                         for k in range(2)], axis=1) * self.scale
+
+
 class DenseMethod(SafeField, ModelChoice):
     """Streaming dense method: returns each frame's motion ``window`` frames later.
 
@@ -393,22 +417,51 @@ class DenseMethod(SafeField, ModelChoice):
                                        freqs=self._freqs[1])
 
     def _emit(self, fr: DenseFrame, pairs: tuple[int, int]) -> FrameMotion:
-        """Frame ``fr``'s motion from the camera solve over ``pairs`` and its own flows."""
-        h, w = fr.image.shape
-        t_rows = self.timing.row_times(h, fr.start)
-        t_ref = self.timing.reference_time(h, fr.start)
-        cam = self._camera(pairs)
+        """Frame ``fr``'s motion, stage by stage (the package's docstring lists them)."""
+        cam = self._camera(pairs)  # the camera trajectory over the window
         if cam is None:
             z = np.zeros((self._full[0], 2))
             return FrameMotion(fr.index, fr.start, z, z, ok=False,
                                note="no reliable motion: frame left as is")
-        t0, step, c, u = cam.t0, cam.step, cam.c, cam.u
-        # Times relative to the frame's start, so float32 keeps sub-row precision.
-        grid_t = t0 - fr.start + step * np.arange(c.shape[0])
-        t_rows = t_rows - fr.start
-        t_ref = t_ref - fr.start
+        rows = self._camera_rows(fr, cam)  # eq. 26 per scanline
+        if not self.config.per_pixel:
+            return FrameMotion(fr.index, fr.start, rows.full(rows.whole),
+                               rows.full(rows.velocity), ok=True, note=self._note)
+        # Each pixel's motion beyond the camera's: the per-pixel residual.
+        field_resid, fallback, entering = self._residual(
+            fr, rows.t_rows, rows.t_ref, rows.cam_rows, rows.cam_disp,
+            (float(rows.grid_t[0]), float(cam.step), cam.c), rows.u_rows)
+        frac, new = float(fallback.mean()), float(entering.mean())
+        note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
+                "the frame, the rest unreliable flow)") if frac > 0.05 else ""
+        # Do no harm: no fold or tear it can avoid, objects fitted a motion of their own. A
+        # region kept whole falls back on its rows' whole camera motion: a steady pan
+        # splits it between the trajectory and the rows' velocity.
+        field, folds, kept, spun, said, fronts = self._safe_field(
+            fr, rows_minus(rows.cam_disp, field_resid), rows.whole, fallback, entering,
+            float(rows.t_ref), rows.path, rows.u_rows.mean(axis=0))
+        self._fine = self._fine or kept > 0 or spun > 0
+        note = "; ".join(n for n in (self._note, note, said) if n)
+        # Back to the full frame: per-row values per full row, field in full-frame pixels.
+        disp = rows.full(median_along(field[:, ::4], 1))  # a summary: every 4th is plenty
+        scale_axes(field, *rows.scale)
+        for layer in fronts:  # their displacements too; the weight stays
+            layer[..., :2] *= rows.scale
+        # What the frame's neighbours saw beyond its edge: their flows, for the warp's fill.
+        neighbours = self._fill_flows(fr, rows.t_rows, rows.c_at, rows.u_rows)
+        return FrameMotion(fr.index, fr.start, disp, rows.full(rows.velocity), ok=True,
+                           note=note, fallback=frac, entering=new, kept=kept, folds=folds,
+                           spun=spun, field=field, front=fronts, neighbours=neighbours,
+                           camera=rows.full(rows.whole))
 
-        path = PathTrack(grid_t, c)  # the camera's path (float32), and a rigid fit's track
+    def _camera_rows(self, fr: DenseFrame, cam: CameraSolution) -> _CameraRows:
+        """Return the camera's motion at each row of ``fr`` (working copy), from its path."""
+        h, w = fr.image.shape
+        # Times relative to the frame's start, so float32 keeps sub-row precision.
+        grid_t = cam.t0 - fr.start + cam.step * np.arange(cam.c.shape[0])
+        t_rows = self.timing.row_times(h, fr.start) - fr.start
+        t_ref = self.timing.reference_time(h, fr.start) - fr.start
+        path = PathTrack(grid_t, cam.c)  # the camera's path (float32), and a rigid fit's track
 
         def c_at(t: np.ndarray) -> np.ndarray:
             return path(t).astype(np.float32)
@@ -418,48 +471,19 @@ class DenseMethod(SafeField, ModelChoice):
         velocity = np.gradient(cam_rows.astype(np.float64), t_rows, axis=0) if h > 1 else (
             np.zeros((h, 2)))
         u_rows = np.zeros((h, 2))
-        if u.shape[0]:
-            knots = np.linspace(0, 1, u.shape[0])
+        if cam.u.shape[0]:
+            knots = np.linspace(0, 1, cam.u.shape[0])
             frac_rows = np.arange(h) / max(h - 1, 1)
-            u_rows = np.stack([np.interp(frac_rows, knots, u[:, k]) for k in range(2)], axis=1)
-        velocity = velocity + u_rows
+            u_rows = np.stack([np.interp(frac_rows, knots, cam.u[:, k]) for k in range(2)],
+                              axis=1)
         full_h, full_w = self._full
-        scale = np.array([full_w / w, full_h / h], dtype=np.float32)
-        rows_full = (np.arange(full_h) + 0.5) * h / full_h - 0.5
-
-        def to_full_rows(values: np.ndarray) -> np.ndarray:
-            return np.stack([np.interp(rows_full, np.arange(h), values[:, k])
-                             for k in range(2)], axis=1) * scale
-
-        # Eq. 26 per scanline: the camera's displacement plus the row velocity's.
-        cam_whole = cam_disp + u_rows * (t_rows - t_ref)[:, None]
-        camera = to_full_rows(cam_whole)
-        if not self.config.per_pixel:
-            return FrameMotion(fr.index, fr.start, camera, to_full_rows(velocity), ok=True,
-                               note=self._note)
-        field_resid, fallback, entering = self._residual(fr, t_rows, t_ref, cam_rows, cam_disp,
-                                                         (float(grid_t[0]), float(step), c),
-                                                         u_rows)
-        frac, new = float(fallback.mean()), float(entering.mean())
-        note = (f"{100 * frac:.0f}% of pixels on the camera model ({100 * new:.0f}% entering "
-                "the frame, the rest unreliable flow)") if frac > 0.05 else ""
-        # A region kept whole falls back on its rows' whole camera motion: a steady pan
-        # splits it between the trajectory and the rows' velocity.
-        field, folds, kept, spun, said, fronts = self._safe_field(
-            fr, rows_minus(cam_disp, field_resid), cam_whole, fallback, entering, float(t_ref),
-            path, u_rows.mean(axis=0))
-        self._fine = self._fine or kept > 0 or spun > 0
-        note = "; ".join(n for n in (self._note, note, said) if n)
-        # Back to the full frame: per-row values per full row, field in full-frame pixels.
-        disp = to_full_rows(median_along(field[:, ::4], 1))  # a summary: every 4th is plenty
-        scale_axes(field, *scale)
-        for layer in fronts:  # their displacements too; the weight stays
-            layer[..., :2] *= scale
-        neighbours = self._fill_flows(fr, t_rows, c_at, u_rows)
-        return FrameMotion(fr.index, fr.start, disp, to_full_rows(velocity), ok=True,
-                           note=note, fallback=frac, entering=new, kept=kept, folds=folds,
-                           spun=spun, field=field, front=fronts, neighbours=neighbours,
-                           camera=camera)
+        return _CameraRows(grid_t, t_rows, t_ref, path, c_at, cam_rows, cam_disp,
+                           velocity + u_rows, u_rows,
+                           # Eq. 26 per scanline: the camera's displacement plus the row
+                           # velocity's.
+                           cam_disp + u_rows * (t_rows - t_ref)[:, None],
+                           np.array([full_w / w, full_h / h], dtype=np.float32),
+                           (np.arange(full_h) + 0.5) * h / full_h - 0.5)
 
     def _fill_flows(self, fr: DenseFrame, t_rows: np.ndarray,
                     c_at: Callable[[np.ndarray], np.ndarray], u_rows: np.ndarray
