@@ -9,6 +9,7 @@ import pytest
 from unjello.errors import InputError
 from unjello.timing import SensorTiming
 from unjello.trajectory import (
+    EVENTS,
     FIELD_STEP,
     FrameMotion,
     Trajectory,
@@ -27,7 +28,8 @@ def _traj(with_field=False):
         fld = (np.dstack([np.full((h, w), 0.5 * n), np.linspace(0, 1, w)[None].repeat(h, 0)])
                .astype(np.float32) if with_field else None)
         frames.append(FrameMotion(n, float(n), disp, vel, ok=n != 1,
-                                  note="bridged" if n == 1 else "", fallback=0.1 * n,
+                                  note="bridged" if n == 1 else "",
+                                  events=("bridged",) if n == 1 else (), fallback=0.1 * n,
                                   entering=0.05 * n, folds=0.001 * n, field=fld))
     return Trajectory(SensorTiming(0.8, "left-right", "first"), (w, h), frames, "dense")
 
@@ -41,6 +43,7 @@ def test_json_round_trip_keeps_everything_the_schema_names(tmp_path):
     assert back.timing == traj.timing and back.size == traj.size and len(back) == 3
     for a, b in zip(traj.frames, back.frames, strict=True):
         assert (a.index, a.start, a.ok, a.note) == (b.index, b.start, b.ok, b.note)
+        assert a.events == b.events and set(a.events) <= set(EVENTS)
         assert a.fallback == pytest.approx(b.fallback) and a.folds == pytest.approx(b.folds)
         assert a.entering == pytest.approx(b.entering)
         assert np.allclose(a.displacement, b.displacement, atol=1e-4)

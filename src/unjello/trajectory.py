@@ -14,7 +14,8 @@ The JSON form (``schema: "unjello.trajectory"``, ``version: 1``) stores the meth
 timing (``readout``, ``direction``, ``reference``), the frame size (``width``,
 ``height``, coded orientation), the clip's ``fps`` and ``source`` (when known) and, per
 frame: ``index``, ``start`` (time of the first
-scanline in frame intervals), ``ok``, ``note``, ``fallback`` (dense methods: share of
+scanline in frame intervals), ``ok``, ``note``, ``events`` (what the method did to the
+frame, as codes of :data:`EVENTS`; left out when none), ``fallback`` (dense methods: share of
 pixels on the camera motion), ``entering`` (of those, content entering the frame),
 ``kept`` (share given the motion around it because the per-pixel motion folded or tore
 the picture), ``spun`` (the share given a rigid motion fitted to an object the flow
@@ -62,7 +63,7 @@ from .errors import InputError, cannot_write
 from .timing import SensorTiming
 
 __all__ = ["FrameMotion", "Reframe", "Stretch", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
-           "scanline_displacement", "pack", "unpack"]
+           "EVENTS", "scanline_displacement", "pack", "unpack"]
 
 SCHEMA_VERSION = 2
 FIELD_STEP = 8
@@ -89,6 +90,24 @@ class Reframe:
     def identity(self) -> bool:
         """True when the frame is shown as corrected."""
         return self.shift == (0.0, 0.0) and self.zoom == 1.0 and self.angle == 0.0
+
+
+#: What a method may do to a frame beyond measuring it (:attr:`FrameMotion.events`).
+EVENTS: dict[str, str] = {
+    "bridged": "no global motion was found near the frame: its velocity is bridged",
+    "diverged": "the paper's local samples diverged: the global motion alone is used",
+    "still": "a neighbouring frame shows no motion at all: the frame is left as is",
+    "unexplained": "the paper's Bezier velocity does not explain the frame's motion (a "
+                   "vibration?): the frame is left as is",
+    "no-motion": "no reliable motion: the frame is left as is",
+    "kept-folds": "regions given the motion around them: their per-pixel motion folded or "
+                  "tore the picture",
+    "kept-before": "regions given the motion around them: their object's motion failed in "
+                   "the frame before too",
+    "spinning": "an object turned back by a rotation fitted per scanline",
+    "drifting": "an object carried by a velocity of its own, fitted per scanline",
+    "folds": "the correction still folds or tears a visible share of the picture",
+}
 
 
 @dataclass(frozen=True)
@@ -155,6 +174,10 @@ class FrameMotion:
         Dense per-pixel method: the camera trajectory's own per-scanline displacement
         (what ``camera_only`` would apply; ``displacement`` is then the field's per-row
         median, objects included). None where ``displacement`` is the camera's already.
+    events : tuple of str
+        What the method did to this frame beyond measuring it, as codes of
+        :data:`EVENTS` (one per object for ``spinning`` and ``drifting``); ``note`` says
+        the same in words.
     """
 
     index: int
@@ -174,6 +197,7 @@ class FrameMotion:
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
     reframe: Reframe = Reframe()
     camera: np.ndarray | None = None
+    events: tuple[str, ...] = ()
 
     @property
     def camera_displacement(self) -> np.ndarray:
@@ -229,6 +253,8 @@ class FrameMotion:
             "displacement": pack(self.displacement, 1e-4),
             "velocity": pack(self.velocity, 1e-4),
         }
+        if self.events:
+            d["events"] = list(self.events)
         if self.camera is not None:
             d["camera"] = pack(self.camera, 1e-4)
         if not self.reframe.identity:
@@ -266,6 +292,7 @@ class FrameMotion:
             velocity=unpack(d["velocity"]).reshape(-1, 2),
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
+            events=tuple(str(e) for e in d.get("events", ())),
             fallback=float(d.get("fallback", 0.0)),
             entering=float(d.get("entering", 0.0)),
             kept=float(d.get("kept", 0.0)),

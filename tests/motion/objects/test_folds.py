@@ -45,13 +45,13 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
     # keeps them whole because frame 4 did and their flow fails again (35 %).
     kept = [f.index for f in traj.frames if f.kept > 0]
     assert kept == [0, 1, 2, 3, 4, 5]
-    assert "failed in the frame before too" in traj.frames[5].note
-    assert "given the motion around it" in traj.frames[2].note
+    assert "kept-before" in traj.frames[5].events
+    assert {"kept-folds", "kept-before"} & set(traj.frames[2].events)
     assert all(f.folds < FOLD_WARNING for f in traj.frames)
     # Frame 3: the pink spinner turned back whole by a rotation fitted per scanline
     # (+0.10 turns per frame; frame 2 found it, at too little gain to use alone), 19 % of
     # the picture; the yellow one (-0.10) given the motion around it.
-    assert traj.frames[3].spun > 0.1 and "1 spinning object(s)" in traj.frames[3].note
+    assert traj.frames[3].spun > 0.1 and traj.frames[3].events.count("spinning") == 1
     # The confidence says how much is on motion measured for it: 0.32-0.77 (each spinner
     # whole, with a margin and the flat floor's failed flow, on the motion around it).
     assert 0.3 < min(f.confidence for f in traj.frames) < 0.5

@@ -130,7 +130,7 @@ def test_corners_no_neighbour_saw_are_fitted_no_motion_of_their_own():
     sim = list(simulate(data.astronaut(), Motion.steps([(48.0, 28.8)], [100.0]), timing, 6,
                         size=(320, 180)))
     _, traj = correct_frames([s.rolling for s in sim], timing)
-    assert not any("moving on their own" in f.note for f in traj.frames)
+    assert not any("drifting" in f.events for f in traj.frames)
     ratio = [displacement_error(f, s.motion) / displacement_error(None, s.motion)
              for f, s in zip(traj.frames, sim, strict=True)]
     assert max(ratio[3:]) < 0.04, ratio

@@ -422,7 +422,8 @@ class DenseMethod(SafeField, ModelChoice):
         if cam is None:
             z = np.zeros((self._full[0], 2))
             return FrameMotion(fr.index, fr.start, z, z, ok=False,
-                               note="no reliable motion: frame left as is")
+                               note="no reliable motion: frame left as is",
+                               events=("no-motion",))
         rows = self._camera_rows(fr, cam)  # eq. 26 per scanline
         if not self.config.per_pixel:
             return FrameMotion(fr.index, fr.start, rows.full(rows.whole),
@@ -437,7 +438,7 @@ class DenseMethod(SafeField, ModelChoice):
         # Do no harm: no fold or tear it can avoid, objects fitted a motion of their own. A
         # region kept whole falls back on its rows' whole camera motion: a steady pan
         # splits it between the trajectory and the rows' velocity.
-        field, folds, kept, spun, said, fronts = self._safe_field(
+        field, folds, kept, spun, said, fronts, events = self._safe_field(
             fr, rows_minus(rows.cam_disp, field_resid), rows.whole, fallback, entering,
             float(rows.t_ref), rows.path, rows.u_rows.mean(axis=0))
         self._fine = self._fine or kept > 0 or spun > 0
@@ -452,7 +453,7 @@ class DenseMethod(SafeField, ModelChoice):
         return FrameMotion(fr.index, fr.start, disp, rows.full(rows.velocity), ok=True,
                            note=note, fallback=frac, entering=new, kept=kept, folds=folds,
                            spun=spun, field=field, front=fronts, neighbours=neighbours,
-                           camera=rows.full(rows.whole))
+                           camera=rows.full(rows.whole), events=events)
 
     def _camera_rows(self, fr: DenseFrame, cam: CameraSolution) -> _CameraRows:
         """Return the camera's motion at each row of ``fr`` (working copy), from its path."""

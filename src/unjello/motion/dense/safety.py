@@ -103,7 +103,8 @@ class SafeField:
     def _safe_field(self, fr: DenseFrame, field: np.ndarray, camera: np.ndarray,
                     fallback: np.ndarray, entering: np.ndarray, t_ref: float,
                     c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray
-                    ) -> tuple[np.ndarray, float, float, float, str, tuple[np.ndarray, ...]]:
+                    ) -> tuple[np.ndarray, float, float, float, str, tuple[np.ndarray, ...],
+                               tuple[str, ...]]:
         """Make the per-pixel field safe: no fold or tear it can avoid.
 
         Where the field folds in blobs, the region gets the motion around it
@@ -111,11 +112,13 @@ class SafeField:
         scanline's whole camera motion, eq. 26 with the rows' velocity); such regions and
         the objects whose flow failed (:func:`~unjello.motion.objects.folds.failed_blobs`) are
         tried as spinning objects (:meth:`_turn_back_spinning`). Returns the field, its
-        folds, the share kept whole, the share spun, what to say and the spinning
-        objects' layers in front of the field.
+        folds, the share kept whole, the share spun, what to say, the spinning
+        objects' layers in front of the field and the events
+        (:data:`~unjello.trajectory.EVENTS`).
         """
         h, w = field.shape[:2]
         notes = []
+        events: tuple[str, ...] = ()
         folds, kept = fold_share(field), 0.0
         regions = np.zeros((h, w), bool)
         carried, self._kept = self._kept, None
@@ -144,6 +147,7 @@ class SafeField:
                 why = ("the per-pixel motion folded or tore" if folds_before > KEEP_ISLAND
                        else "its object's motion failed in the frame before too")
                 notes.append(f"{100 * kept:.0f}% given the motion around it ({why})")
+                events += ("kept-folds" if folds_before > KEEP_ISLAND else "kept-before",)
             else:
                 regions = np.zeros((h, w), bool)
         failed = fallback & ~entering
@@ -156,14 +160,16 @@ class SafeField:
             if followed is not None and followed.any():
                 blobs = failed_blobs(failed, followed=followed, missed=missed)
         regions |= blobs
-        field, folds, spun, said, fronts = self._turn_back_spinning(
+        field, folds, spun, said, fronts, fitted = self._turn_back_spinning(
             fr, field, folds, regions, t_ref, c_at, u_mean, followed)
         notes.append(said)
+        events += fitted
         if folds > FOLD_WARNING:  # what shows: the blobs' share where the picture has detail
             folds *= _on_detail(fold_blobs(field, followed), fr.image)
         if folds > FOLD_WARNING:
             notes.append(f"the correction folds or tears {100 * folds:.1f}% of the picture")
-        return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts
+            events += ("folds",)
+        return field, folds, kept, spun, "; ".join(n for n in notes if n), fronts, events
 
     def _missed(self, fr: DenseFrame) -> np.ndarray:
         """Pixels the flow to every neighbour that sees them carries onto unlike grey levels.
@@ -199,7 +205,8 @@ class SafeField:
                             regions: np.ndarray, t_ref: float,
                             c_at: Callable[[np.ndarray], np.ndarray], u_mean: np.ndarray,
                             followed: np.ndarray | None
-                            ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...]]:
+                            ) -> tuple[np.ndarray, float, float, str, tuple[np.ndarray, ...],
+                                       tuple[str, ...]]:
         """Fit rotations to the failed ``regions`` (:func:`keep_spinning`) and use them.
 
         Rotations with a neighbour on each side, or one and last frame's rotations to
@@ -207,14 +214,15 @@ class SafeField:
         one side alone (a pair, a clip's ends), drifts along the motion around the object
         (a near pole); and only if the map then folds nowhere else. Returns the field, its
         folds (along the spinning objects' edges, occlusion boundaries, and along the
-        ``followed`` objects, not counted), the share spun, a note and the rotations'
-        layers in front of the field.
+        ``followed`` objects, not counted), the share spun, a note, the rotations'
+        layers in front of the field and the events (``spinning``, ``drifting``: one an
+        object).
         """
         others = [(f.image, f.start - fr.start) for f in self._frames
                   if abs(f.index - fr.index) == 1]
         if not regions.any() or not others:
             self._spins = []
-            return field, folds, 0.0, "", ()
+            return field, folds, 0.0, "", (), ()
 
         track = rigid.carried(c_at, u_mean)  # what carries an object: path, row velocity
         # Last frame's rotations, carried to this frame's reference time.
@@ -225,7 +233,7 @@ class SafeField:
             rotations=len(others) >= 2 or bool(self._spins))
         self._spins = [(s.centre, s.omega, fr.start + t_ref) for s in fitted]
         if not spins:
-            return field, folds, 0.0, "", ()
+            return field, folds, 0.0, "", (), ()
         spun_px = (weight > 0.5).astype(np.uint8)
         k = np.ones((7, 7), np.uint8)
         edges = cv2.dilate(spun_px, k) > cv2.erode(spun_px, k)
@@ -233,7 +241,7 @@ class SafeField:
         after = float(blobs_after.mean())
         if after * _on_detail(blobs_after, fr.image) > max(folds, FOLD_WARNING):
             # folds elsewhere, where they show: a wrong rotation
-            return field, folds, 0.0, "", ()
+            return field, folds, 0.0, "", (), ()
         spun = float(spun_px.mean())
         turning = [s for s in spins if s.omega]
         drifting = [s for s in spins if not s.omega]
@@ -248,7 +256,8 @@ class SafeField:
                          f"velocity fitted per scanline ({speeds} px per frame against the "
                          "motion around them)")
         return spinning, after, spun, (
-            f"{'; '.join(notes)}: {100 * spun:.0f}% of the picture"), fronts
+            f"{'; '.join(notes)}: {100 * spun:.0f}% of the picture"), fronts, (
+            ("spinning",) * len(turning) + ("drifting",) * len(drifting))
 
 
 def _on_detail(blobs: np.ndarray, image: np.ndarray) -> float:

@@ -236,15 +236,17 @@ class PaperMethod:
         ok = any(p.g_ok for k, p in self._pairs.items() if k in (n, n + 1))
         notes = ["" if ok else "no global motion found near this frame; velocity bridged",
                  "local samples diverged: the global motion alone used" if diverged else ""]
+        events = (() if ok else ("bridged",)) + (("diverged",) if diverged else ())
         disp = scanline_displacement(vel, self.timing)
         curve = disp
-        vel, disp, said = self._do_no_harm(n, times, vel, disp)
+        vel, disp, said, why = self._do_no_harm(n, times, vel, disp)
         self._last_curve = (n, curve)  # the next frame is judged against it, not a choice
         return FrameMotion(n, start, disp, vel, ok=ok,
-                           note="; ".join(x for x in (*notes, said) if x))
+                           note="; ".join(x for x in (*notes, said) if x),
+                           events=events + ((why,) if why else ()))
 
     def _do_no_harm(self, n: int, times: np.ndarray, vel: np.ndarray, disp: np.ndarray
-                       ) -> tuple[np.ndarray, np.ndarray, str]:
+                       ) -> tuple[np.ndarray, np.ndarray, str, str]:
         """Do no harm: keep the correction under which frame n agrees with its neighbours.
 
         Two global-shutter frames of a translating camera differ by one translation, so
@@ -258,7 +260,8 @@ class PaperMethod:
         And a frame next to a pair that shows no motion at all was read while the camera
         stood still (the frame after a sudden stop, before a start, which the curve
         reaches into: the paper's Fig. 7): it is left as is too. Either is said in the
-        frame's note.
+        frame's note, and as an event (``still``, ``unexplained``;
+        :data:`~unjello.trajectory.EVENTS`).
         """
         h = disp.shape[0]
         # (pair, earlier frame's D, later frame's D); None: the candidate
@@ -274,7 +277,7 @@ class PaperMethod:
                 self._frame_velocity(self.timing.row_times(h, nxt[1]))[0], self.timing)
             checks.append((ahead, None, later))
         if not checks or self.timing.readout <= 0:
-            return vel, disp, ""
+            return vel, disp, "", ""
         rows = np.arange(h, dtype=np.float64)
 
         def at(d: np.ndarray, where: np.ndarray) -> np.ndarray:
@@ -295,13 +298,14 @@ class PaperMethod:
             if pair.g_ok and np.abs(pair.g_vector).max() < STILL and \
                     np.abs(pair.local_l).max() < STILL:
                 return np.zeros_like(vel), np.zeros_like(disp), (
-                    "still: a neighbouring frame shows no motion at all")
+                    "still: a neighbouring frame shows no motion at all"), "still"
         curve, still = spread(disp), spread(np.zeros_like(disp))
         if still > SHEAR_FLOOR and curve > UNEXPLAINED * still:
             return np.zeros_like(vel), np.zeros_like(disp), (
                 "frame left as is: the Bezier velocity does not explain its motion (block "
-                f"rows {curve:.2f} px apart with it, {still:.2f} px without; a vibration?)")
-        return vel, disp, ""
+                f"rows {curve:.2f} px apart with it, {still:.2f} px without; a vibration?)"
+            ), "unexplained"
+        return vel, disp, "", ""
 
     # -- streaming API -----------------------------------------------------------------
     def push(self, frame: np.ndarray, start: float) -> list[FrameMotion]:
