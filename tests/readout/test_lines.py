@@ -84,7 +84,7 @@ def test_the_motion_goes_first_and_the_lines_check_it(street):
     est = estimate_readout(_clip(street, Motion("shake"), 0.5))
     assert est.reliable and est.cue == "motion" and est.uncertainty == MOTION_SIGMA
     assert est.readout == pytest.approx(0.5, abs=0.05)
-    assert est.note.startswith("the straight lines agree")
+    assert est.lines_agree is True
     # Where the motion cannot tell, confident lines are the estimate: the motion cue's
     # shortest candidate (no minimum inside the range) is taken as "cannot tell".
     motion = ReadoutEstimate(1.0, 0.2, False, np.zeros(0), np.zeros(0))

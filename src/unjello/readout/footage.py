@@ -127,6 +127,9 @@ class ReadoutEstimate:
         :func:`pool_estimates` weighs by its uncertainty.
     note : str
         What the straight lines said of a motion estimate (they agree or disagree).
+    lines_agree : bool, optional
+        Where the motion estimate stands and the straight lines were confident: whether
+        they agree with it (within three combined standard deviations); None otherwise.
     """
 
     readout: float
@@ -139,6 +142,7 @@ class ReadoutEstimate:
     uncertainty: float = float("inf")
     best_guess: float = float("nan")
     note: str = ""
+    lines_agree: bool | None = None
 
     def describe(self) -> str:
         """One line: the readout and what it rests on, or why it is unknown."""
@@ -164,7 +168,7 @@ class ReadoutEstimate:
         out = {"readout": self.readout, "confidence": self.confidence,
                "reliable": self.reliable, "cue": self.cue, "model": self.model,
                "uncertainty": num(self.uncertainty), "best_guess": num(self.best_guess),
-               "note": self.note}
+               "note": self.note, "lines_agree": self.lines_agree}
         if costs:
             out.update(candidates=self.candidates.tolist(), costs=self.costs.tolist())
         return out
@@ -181,14 +185,14 @@ def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> Readou
     uncertainty, is kept for pooling (:func:`pool_estimates`).
     """
     if motion.reliable:
-        note = ""
+        note, agree = "", None
         if lines.confident:
-            agree = abs(motion.readout - lines.readout) <= 3.0 * np.hypot(MOTION_SIGMA,
-                                                                          lines.uncertainty)
+            agree = bool(abs(motion.readout - lines.readout)
+                         <= 3.0 * np.hypot(MOTION_SIGMA, lines.uncertainty))
             note = (f"the straight lines {'agree' if agree else 'disagree'}: "
                     f"{lines.readout:.3f} (+-{lines.uncertainty:.3f})")
         return dataclasses.replace(motion, cue="motion", uncertainty=MOTION_SIGMA,
-                                   best_guess=motion.readout, note=note)
+                                   best_guess=motion.readout, note=note, lines_agree=agree)
     if lines.confident:
         return dataclasses.replace(
             motion, readout=float(np.clip(lines.readout, 0.05, 1.0)),
