@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import av
 import numpy as np
@@ -395,14 +396,28 @@ class _StdoutPipe:
 
     PyAV writes no trailer into a file that says it is ``closed``, so an aborted output
     never blocks on a full pipe whose reader stopped reading (a stop signal would hang).
+    The bytes go to the unbuffered stream beneath ``sys.stdout`` where there is one: none
+    are left in Python's buffer for the exit to flush into a pipe nobody reads (a run
+    stopped by Ctrl-C once hung there).
     """
 
     closed = False
+    _raw: Any = None  # where the bytes go: the raw stream, else the buffer
 
     def write(self, data: bytes) -> int:
         if self.closed:
             return len(data)
-        return sys.stdout.buffer.write(data)
+        if self._raw is None:
+            buffer = sys.stdout.buffer
+            buffer.flush()  # what was written before, in order
+            self._raw = getattr(buffer, "raw", None) or buffer
+        view, done = memoryview(data), 0
+        while done < len(view):
+            n = self._raw.write(view[done:])
+            if n is None:  # a non-blocking stream with no room: nothing more to do here
+                break
+            done += n
+        return done
 
 
 class VideoWriter:
