@@ -459,7 +459,7 @@ def cases() -> list[Case]:
 
 
 #: The cases of :func:`ci_slice`, by name: a few of every kind, small and short, among
-#: those the default corrects today (the slice guards what works; the whole matrix
+#: those the default corrects well (the slice guards what works; the whole matrix
 #: shows what does not).
 CI = ("pan/pan/photo/0", "pan/whip/sharp/1", "pan/tilt/photo/0", "pan/pan/parallax/4",
       "pan/rest/low/3", "pan/stop/photo/0", "shake/photo/6", "shake/sharp/7",
