@@ -49,13 +49,16 @@ def h264_roundtrip(frames: Sequence[np.ndarray], crf: int, fps: float = 30.0
         return [fr.to_ndarray(format="rgb24") for fr in c.decode(video=0)]
 
 
-def degrade(frames: Sequence[np.ndarray], seed: int = 0, noise: float = 3.0, crf: int = 26
-            ) -> list[np.ndarray]:
+def degrade(frames: Sequence[np.ndarray], seed: int = 0, noise: float = 3.0,
+            crf: int | None = 26, fps: float = 30.0) -> list[np.ndarray]:
     """Return the frames as a camera delivers them: noisy, then compressed.
 
-    Gaussian sensor noise of ``noise`` grey levels (from ``seed``), then libx264 at ``crf``
-    and back (:func:`h264_roundtrip`).
+    Gaussian sensor noise of ``noise`` grey levels (from ``seed``; 0: none), then libx264
+    at ``crf`` and back (:func:`h264_roundtrip`; None: not compressed).
     """
-    rng = np.random.default_rng(seed)
-    noisy = [np.clip(f + rng.normal(0, noise, f.shape), 0, 255).astype(np.uint8) for f in frames]
-    return h264_roundtrip(noisy, crf)
+    out = list(frames)
+    if noise > 0:
+        rng = np.random.default_rng(seed)
+        out = [np.clip(f + rng.normal(0, noise, f.shape), 0, 255).astype(np.uint8)
+               for f in out]
+    return h264_roundtrip(out, crf, fps) if crf is not None else out

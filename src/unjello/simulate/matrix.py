@@ -241,18 +241,6 @@ def _render(case: Case) -> list[SimulatedFrame]:
                          layer_image=_skimage("chelsea")))
 
 
-def _degrade(case: Case, frames: list[np.ndarray]) -> list[np.ndarray]:
-    if case.noise > 0:
-        rng = np.random.default_rng(len(case.name))
-        frames = [np.clip(f + rng.normal(0, case.noise, f.shape), 0, 255).astype(np.uint8)
-                  for f in frames]
-    if case.crf is not None:
-        from ..io.roundtrip import h264_roundtrip  # PyAV, at the edge
-
-        frames = h264_roundtrip(frames, case.crf, case.fps)
-    return frames
-
-
 def _gain(images: list[np.ndarray], gains: Sequence[float], lift: Sequence[float]
           ) -> list[np.ndarray]:
     return [np.clip(img.astype(np.float32) * g + o, 0, 255).astype(np.uint8)
@@ -295,7 +283,9 @@ def build(case: Case) -> Clip:
         lift = [0.0] * n
         gains[n // 2], lift[n // 2] = 1.6, 50.0
         rolling, truth = _gain(rolling, gains, lift), _gain(truth, gains, lift)
-    rolling = _degrade(case, rolling)
+    from ..io.roundtrip import degrade  # PyAV, at the edge
+
+    rolling = degrade(rolling, len(case.name), case.noise, case.crf, case.fps)
     return Clip(rolling, truth, motions, masks, background,
                 case.frames if case.then is not None else None)
 
