@@ -65,10 +65,12 @@ def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
     """Estimate the readout of INPUTS (videos or folders, one camera mode) from the footage.
 
     Each is read from its motion and from the lean of its straight lines; several are
-    pooled by their uncertainties (a camera mode's readout does not change).
+    pooled by their uncertainties (a camera mode's readout does not change). A camera
+    that turns is fitted as a rotation per scanline through a lens, which is fitted too
+    and printed as the flags that give it to correct.
     """
     from ..io.sink import check_new, replace, temp_path
-    from ..readout.footage import estimate_clips, readout_preset
+    from ..readout.footage import estimate_clips, lens_flags, readout_preset
 
     if save_preset is not None:
         check_new(save_preset, overwrite)
@@ -96,6 +98,8 @@ def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
         return
     for path, _, est in rows:
         click.echo(est.describe() if len(rows) == 1 else f"{path}: {est.describe()}")
+        if est.lens is not None and est.reliable:
+            click.echo(f"  its lens, fitted to the motion: {lens_flags(est.lens)}")
     if len(rows) > 1:
         click.echo(f"pooled over {len(rows)} inputs: {best.describe()}")
     if save_preset is not None:

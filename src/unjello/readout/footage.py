@@ -38,11 +38,14 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..lens import Lens
 from ..timing import to_top_bottom
 from .lines import CONFIDENT, LineCue, confidence_of, line_readout
+from .rotation import WINDOW, describe_lens
 
-__all__ = ["MOTION_SIGMA", "ReadoutEstimate", "estimate_readout", "estimate_readout_file",
-           "pool_estimates", "estimate_clips", "readout_preset"]
+__all__ = ["MOTION_SIGMA", "ROTATION_EXPLAINS", "ROTATION_SIGMA", "ReadoutEstimate",
+           "estimate_readout", "estimate_readout_file", "pool_estimates", "estimate_clips",
+           "readout_preset", "lens_flags"]
 
 
 #: Weight of the trajectory's acceleration penalty when scoring a readout candidate, its
@@ -93,6 +96,18 @@ def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: 
 #: with estimates of 0.10-0.18 for 0.5-1.0.
 _VIBRATION_CONFIDENCE = 0.7
 
+#: The shortest readout an estimate reports (a fraction of the frame interval).
+_SHORTEST = 0.05
+
+#: The rotation model's estimate is reliable where its uncertainty (the jackknife's over
+#: its windows, at least :data:`MOTION_SIGMA`) is within this: the turning cameras of
+#: ``benchmarks/readout.py --rotation`` come within 0.035 (``docs/readout.md``).
+ROTATION_SIGMA = 0.05
+#: ... and where it explains this share of the cells' motion: 0.998 on TUM's sequence 4,
+#: 0.86 on the phone in a car (its travel and the traffic), where its estimate is
+#: 0.4 short of the stated 1.0 (``docs/readout.md#a-camera-that-turns``).
+ROTATION_EXPLAINS = 0.98
+
 #: The uncertainty (one sigma, fraction of the frame interval) given to a reliable
 #: estimate from the motion: its errors on the simulated clips of
 #: ``benchmarks/readout.py`` are within 0.015 where it says it is reliable.
@@ -130,6 +145,11 @@ class ReadoutEstimate:
     lines_agree : bool, optional
         Where the motion estimate stands and the straight lines were confident: whether
         they agree with it (within three combined standard deviations); None otherwise.
+    lens : Lens, optional
+        The lens the rotation model fitted (or was given), where that model was used.
+    explained : float
+        The rotation model's share of the motion explained (NaN where not used): below
+        :data:`ROTATION_EXPLAINS` its estimate is not trusted.
     """
 
     readout: float
@@ -143,6 +163,8 @@ class ReadoutEstimate:
     best_guess: float = float("nan")
     note: str = ""
     lines_agree: bool | None = None
+    lens: Lens | None = None
+    explained: float = float("nan")
 
     def describe(self) -> str:
         """One line: the readout and what it rests on, or why it is unknown."""
@@ -156,6 +178,8 @@ class ReadoutEstimate:
                     f"{self.readout:g} unless told otherwise)")
         rest = {"motion": f"{self.model} motion model", "lines": "the lean of straight lines",
                 "pooled": "clips pooled"}.get(self.cue, self.cue)
+        if self.cue == "motion" and self.model == "rotation" and self.lens is not None:
+            rest += f" through {describe_lens(self.lens)}"
         if self.note:
             rest += f"; {self.note}"
         return (f"readout {self.readout:.3f} of the frame interval "
@@ -168,7 +192,11 @@ class ReadoutEstimate:
         out = {"readout": self.readout, "confidence": self.confidence,
                "reliable": self.reliable, "cue": self.cue, "model": self.model,
                "uncertainty": num(self.uncertainty), "best_guess": num(self.best_guess),
-               "note": self.note, "lines_agree": self.lines_agree}
+               "note": self.note, "lines_agree": self.lines_agree,
+               "explained": num(self.explained),
+               "lens": None if self.lens is None else {
+                   "focal": self.lens.focal,
+                   "distortion": None if self.lens.k is None else list(self.lens.k)}}
         if costs:
             out.update(candidates=self.candidates.tolist(), costs=self.costs.tolist())
         return out
@@ -188,18 +216,32 @@ def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> Readou
         note, agree = "", None
         if lines.confident:
             agree = bool(abs(motion.readout - lines.readout)
-                         <= 3.0 * np.hypot(MOTION_SIGMA, lines.uncertainty))
+                         <= 3.0 * np.hypot(motion.uncertainty, lines.uncertainty))
             note = (f"the straight lines {'agree' if agree else 'disagree'}: "
                     f"{lines.readout:.3f} (+-{lines.uncertainty:.3f})")
-        return dataclasses.replace(motion, cue="motion", uncertainty=MOTION_SIGMA,
-                                   best_guess=motion.readout, note=note, lines_agree=agree)
+        return dataclasses.replace(motion, cue="motion", best_guess=motion.readout, note=note,
+                                   lines_agree=agree)
     if lines.confident:
         return dataclasses.replace(
             motion, readout=float(np.clip(lines.readout, 0.05, 1.0)),
             confidence=confidence_of(lines.uncertainty), reliable=True, cue="lines",
-            uncertainty=lines.uncertainty, best_guess=lines.readout)
+            uncertainty=lines.uncertainty, best_guess=_inside(lines.readout))
+    # Neither can tell: the two best guesses by their uncertainties, for pooling.
+    guesses = [(g, u) for g, u in ((motion.best_guess, motion.uncertainty),
+                                   (lines.readout, lines.uncertainty))
+               if np.isfinite(g) and np.isfinite(u) and u > 0]
+    guess, sigma = float("nan"), float("inf")
+    if guesses:
+        wts = np.array([1.0 / u ** 2 for _, u in guesses])
+        guess = float(np.sum(wts * [g for g, _ in guesses]) / wts.sum())
+        sigma = float(1.0 / np.sqrt(wts.sum()))
     return dataclasses.replace(motion, readout=fallback, reliable=False, cue="none",
-                               uncertainty=lines.uncertainty, best_guess=lines.readout)
+                               uncertainty=sigma, best_guess=_inside(guess))
+
+
+def _inside(readout: float) -> float:
+    """Keep a best guess inside (0, 1]: :data:`_SHORTEST` to the whole frame interval."""
+    return float(np.clip(readout, _SHORTEST, 1.0)) if np.isfinite(readout) else readout
 
 
 def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
@@ -225,14 +267,14 @@ def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
     return ReadoutEstimate(float(np.clip(mean, 0.05, 1.0)) if reliable else fallback,
                            confidence_of(sigma), bool(reliable), empty, empty,
                            cue="pooled" if reliable else "none", uncertainty=sigma,
-                           best_guess=mean)
+                           best_guess=_inside(mean))
 
 
 def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bottom",
                      starts: Iterable[float] | None = None, max_frames: int = 60,
                      fallback: float = 1.0, min_confidence: float = 0.5,
                      min_variation: float = 0.5, lines: bool = True,
-                     motion: bool = True) -> ReadoutEstimate:
+                     motion: bool = True, lens: Lens | None = None) -> ReadoutEstimate:
     """Estimate the readout ratio from a clip (see the module notes).
 
     Parameters
@@ -260,6 +302,9 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
         and combine the two cues (:func:`_combine`).
     motion : bool
         Use the motion model (False: the straight lines alone).
+    lens : Lens, optional
+        The camera's lens (of the frames in top-to-bottom orientation), where known; else
+        the rotation model fits one (:func:`~unjello.readout.rotation.fit_rotation`).
 
     Returns
     -------
@@ -269,6 +314,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     from ..motion.dense.method import DenseConfig
     from ..motion.dense.vibration import detect_vibration
     from ..motion.flow.dis import FlowSettings, flow_pair, half_row_flows, row_flows
+    from .rotation import cell_flows
 
     grey, times = [], []
     start_list = list(starts) if starts is not None else None
@@ -289,10 +335,11 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     # wide: the confidence threshold was calibrated with it; at full resolution
     # pan-then-stop scored as low as 0.52. (Its flow settings are kept as calibrated.)
     flow = FlowSettings("medium", finest_scale=1, refinement=None, consistency=10.0)
-    pairs, halves, ahead = [], [], []
+    pairs, halves, ahead, cells = [], [], [], []
     for k in range(1, len(grey)):
         bwd, ok, fwd, _ = flow_pair(grey[k - 1], grey[k], flow, 640, two_way=True)
         pairs.append(row_flows(bwd, ok))
+        cells.append(cell_flows(bwd, ok))
         halves.append(half_row_flows(bwd, ok))
         ahead.append(fwd)
     line_cue = (line_readout(grey, np.asarray(times), ahead) if lines
@@ -356,7 +403,40 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
                                   best_guess=rho if reliable else float("nan"))
     if vibrating:  # a wobble within the frame bends lines: their lean says nothing clear
         line_cue = LineCue(float("nan"), float("inf"), "none")
+    elif variation >= min_variation and len(cells) >= 2 * WINDOW:
+        from_motion = _turning(cells, np.asarray(times), grey[0].shape, lens, fallback,
+                               from_motion)
     return _combine(from_motion, line_cue, fallback)
+
+
+def _turning(cells: list, times: np.ndarray, size: tuple[int, int], lens: Lens | None,
+             fallback: float, translation: ReadoutEstimate) -> ReadoutEstimate:
+    """Return the rotation model's estimate where a turning camera explains the flow best.
+
+    :func:`~unjello.readout.rotation.fit_rotation` fits the lens (unless given) and the
+    readout; where its lens is no better than the longest focal length (a translation),
+    the translation model's estimate ``translation`` stands.
+    """
+    from .rotation import fit_rotation
+
+    fit = fit_rotation(cells, times, size, lens)
+    if not fit.turning:
+        return translation
+    # Motion the rotation does not explain (travel, traffic) biases the readout more
+    # than the windows' scatter shows: there a window's scatter is the uncertainty.
+    explains = fit.explained >= ROTATION_EXPLAINS
+    sigma = max(fit.uncertainty if explains else fit.spread, MOTION_SIGMA)
+    reliable = bool(explains and sigma <= ROTATION_SIGMA
+                    and _SHORTEST <= fit.readout <= 1.0 + sigma)
+    guess = _inside(fit.readout) if np.isfinite(sigma) else float("nan")
+    note = "" if explains else (
+        f"a turning camera explains {100 * fit.explained:.0f}% of its motion (travel, "
+        f"traffic, parallax), too little to trust its readout ({guess:.2f} +-{sigma:.2f})")
+    confidence = float(1.0 / (1.0 + (sigma / ROTATION_SIGMA) ** 2)) if explains else 0.0
+    return ReadoutEstimate(guess if reliable else fallback, confidence, reliable,
+                           fit.candidates, fit.costs, "rotation", uncertainty=sigma,
+                           best_guess=guess, note=note, lens=fit.lens,
+                           explained=fit.explained)
 
 
 def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
@@ -435,6 +515,23 @@ def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-
 
 
 def readout_preset(est: ReadoutEstimate, direction: str, fps: float | None) -> dict:
-    """Return a preset (``correct --preset FILE``) of an estimated readout: ms at a known rate."""
+    """Return a preset (``correct --preset FILE``) of an estimated readout: ms at a known rate.
+
+    A lens the rotation model fitted comes with it (``focal``, and a fisheye's
+    ``distortion``, which ``--undistort`` needs).
+    """
     value: float | str = f"{est.readout * 1000.0 / fps:.3f}ms" if fps else round(est.readout, 4)
-    return {"readout": value, "direction": direction}
+    out: dict = {"readout": value, "direction": direction}
+    if est.lens is not None and est.cue == "motion":
+        out["focal"] = round(est.lens.focal, 1)
+        if est.lens.k is not None:
+            out["distortion"] = ",".join(f"{v:.4g}" for v in est.lens.k)
+    return out
+
+
+def lens_flags(lens: Lens) -> str:
+    """Return the ``correct`` flags that give a fitted lens (and undistort a fisheye)."""
+    if lens.k is None:
+        return f"--focal {lens.focal:.0f} (a pinhole: nothing to undistort)"
+    return (f"--undistort --focal {lens.focal:.0f} --distortion "
+            + ",".join(f"{v:.4g}" for v in lens.k))
