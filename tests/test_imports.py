@@ -169,7 +169,7 @@ BUDGET = {"unjello": 4500, "unjello._kernels": 1000, "unjello.cli": 1000,
           "unjello.exports": 1000, "unjello.io": 2600, "unjello.motion": 400,
           "unjello.motion.dense": 2500, "unjello.motion.flow": 1200,
           "unjello.motion.gyro": 750, "unjello.motion.objects": 1750,
-          "unjello.motion.paper": 1500, "unjello.preview": 600, "unjello.readout": 1400,
+          "unjello.motion.paper": 1500, "unjello.preview": 600, "unjello.readout": 1800,
           "unjello.run": 900, "unjello.simulate": 1700, "unjello.warp": 1000,
           "unjello.warp.fill": 1500}
 

@@ -25,6 +25,7 @@ from .io.sidecars import LensProfile, find_gyro_log, gyro_source, read_lens_prof
 from .io.source import FrameSource
 from .io.telemetry import camera_of
 from .io.video import is_pipe, probe, variable_rate
+from .lens import Lens
 from .readout.cameras import CameraMatch, match
 from .readout.footage import estimate_readout_file
 from .timing import Milliseconds, SensorTiming
@@ -311,12 +312,13 @@ def resolve_clip(config: CorrectionConfig, src_p: Path, source: FrameSource,
                   and (config.readout in (None, "auto") or gyro or config.undistort)
                   else None)
     profile = read_lens_profile(config.lens_profile) if config.lens_profile else None
+    known = (Lens(config.gyro.focal, config.gyro.distortion) if config.gyro.focal else None)
     resolved = resolve_timing(
         config, profile=profile, path=src_p, video_fps=source.info.fps,
         motion_timing=given.timing if given is not None else None,
         size=(source.info.width, source.info.height), identified=identified,
         estimate=lambda direction, fps: estimate_readout_file(src_p, direction=direction,
-                                                              fps=fps))
+                                                              fps=fps, lens=known))
     gyro_log, own, report, distrust = None, None, {}, ""
     if gyro or config.undistort:
         config, lens = with_lens(config, config.camera or identified,

@@ -99,13 +99,11 @@ _VIBRATION_CONFIDENCE = 0.7
 #: The shortest readout an estimate reports (a fraction of the frame interval).
 _SHORTEST = 0.05
 
-#: The rotation model's estimate is reliable where its uncertainty (the jackknife's over
-#: its windows, at least :data:`MOTION_SIGMA`) is within this: the turning cameras of
-#: ``benchmarks/readout.py --rotation`` come within 0.035 (``docs/readout.md``).
+#: The rotation model's estimate is reliable where its uncertainty (at least
+#: :data:`MOTION_SIGMA`) is within this (``docs/readout.md``, "A camera that turns") ...
 ROTATION_SIGMA = 0.05
-#: ... and where it explains this share of the cells' motion: 0.998 on TUM's sequence 4,
-#: 0.86 on the phone in a car (its travel and the traffic), where its estimate is
-#: 0.4 short of the stated 1.0 (``docs/readout.md#a-camera-that-turns``).
+#: ... and it explains this share of the cells' motion (TUM's sequence 4 0.998; the phone
+#: in a moving car 0.86, its guess 0.4 short of the stated 1.0).
 ROTATION_EXPLAINS = 0.98
 
 #: The uncertainty (one sigma, fraction of the frame interval) given to a reliable
@@ -441,7 +439,8 @@ def _turning(cells: list, times: np.ndarray, size: tuple[int, int], lens: Lens |
 
 def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-bottom",
                           max_frames: int = 60, fallback: float = 1.0,
-                          fps: float | None = None) -> ReadoutEstimate:
+                          fps: float | None = None, lens: Lens | None = None
+                          ) -> ReadoutEstimate:
     """Estimate the readout ratio of a video or image folder from its motion.
 
     Parameters
@@ -456,6 +455,8 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
         Readout returned when the motion cannot tell.
     fps : float, optional
         The frame rate whose interval is the unit (default the video's own).
+    lens : Lens, optional
+        The camera's lens where known (else the rotation model fits one).
 
     Returns
     -------
@@ -474,7 +475,7 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
             frames.append(img)
             starts.append(pic.start)
     return estimate_readout(frames, direction=direction, starts=starts, fallback=fallback,
-                            max_frames=max_frames)
+                            max_frames=max_frames, lens=lens)
 
 
 def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-bottom",

@@ -36,18 +36,16 @@ CELLS = 24
 CELL_SHARE = 0.3
 #: Orientation samples a frame interval.
 KNOTS = 32
-#: Weight of the orientation's acceleration penalty (per equation, in pixels at the focal
-#: length): 10-100 recover the readout of the simulated turning cameras exactly, 0.1 left
-#: it 0.05-0.2 long (``docs/readout.md#a-camera-that-turns``).
+#: Weight of the orientation's acceleration penalty (per equation, pixels at the focal
+#: length): strong enough to carry it across the blanking (``docs/readout.md``).
 SMOOTHNESS = 10.0
 #: Reweighting rounds against cells that do not turn with the camera (a passing car,
 #: parallax), their residuals weighed down beyond this many robust deviations.
 ROBUST, ROBUST_KNEE = 2, 3.0
 #: Frame pairs a window of the fit holds (windows overlap by half).
 WINDOW = 4
-#: Focal lengths tried, as multiples of the frame's width (fields of view of about 140
-#: to 14 degrees), and the fisheye's first coefficient: 0 is equidistant, 1/3 near a
-#: pinhole to third order.
+#: Focal lengths tried, as multiples of the width (fields of view of 140 to 14 degrees),
+#: and the fisheye's first coefficient (0 equidistant; 1/3 near a pinhole).
 FOCALS = (0.3, 0.42, 0.6, 0.85, 1.2, 1.7, 2.4, 4.0)
 FISHEYE_K1 = (0.0, 0.12, 0.24)
 #: Windows (spread over the clip) the lens is chosen on.
