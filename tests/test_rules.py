@@ -56,3 +56,18 @@ def test_no_threshold_hides_in_a_keyword_default(path):
                        if isinstance(d, ast.Constant) and type(d.value) in (int, float)
                        and (node.name, arg.arg) not in NOT_RULES]
     assert not hidden, f"{path}: name these as constants with a #: comment: {hidden}"
+
+
+def test_a_rule_comment_is_one_or_two_lines():
+    """A ``#:`` comment says what its rule decides; the evidence lives in the docs it names."""
+    long = []
+    for path in sorted((ROOT / "src" / "unjello").rglob("*.py")):
+        run = 0
+        for i, line in enumerate(path.read_text().splitlines() + [""], start=1):
+            if line.lstrip().startswith("#:"):
+                run += 1
+                continue
+            if run > 2:
+                long.append(f"{path.relative_to(ROOT)}:{i - run}")
+            run = 0
+    assert not long, long

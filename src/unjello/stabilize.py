@@ -60,13 +60,8 @@ MAX_CROP = 0.25
 #: (:func:`soft_limit`).
 KNEE = 0.7
 
-#: Roll wobble (RMS of the smooth roll path less the measured one, over a frame's
-#: window) below which the roll is not stabilised; fully from twice that. Measured on
-#: the first 90 frames of the real clips: the GoPro on the Karma gimbal wobbles 0.039
-#: degrees by the tracked roll, which an independent measurement (a similarity fitted to
-#: the corrected output) does not confirm (correlation 0.04 between their steps): noise,
-#: which smoothing put into the output (its high-frequency roll 0.33 -> 0.59 px at the
-#: corner); the phone in a car wobbles 0.17 degrees, confirmed (correlation 0.84).
+#: Roll wobble (RMS, smooth path less measured) below which the roll is not stabilised; fully
+#: from twice that: the Karma gimbal's 0.039 degrees is noise (``docs/tuning.md#roll_floor``).
 ROLL_FLOOR = float(np.radians(0.05))
 
 #: The roll's step coherence (:func:`step_coherence`) above which it is stabilised

@@ -41,9 +41,8 @@ TILES = 4
 #: Tiles flatter than this grey-level standard deviation (0-255) do not vote: a flat sky
 #: matches anything.
 FLAT = 3.0
-#: A pair whose copies' tiles match below this (:func:`similarity`), whose tones differ by more than
-#: ``TONES`` (:func:`tones`), and that the shift of the pair before or after does not explain either
-#: (their tiles match below ``SIMILAR`` at it), is a cut. (``docs/tuning.md#similar``)
+#: A pair is a cut where its tiles match below SIMILAR, its tones differ by over TONES, and
+#: no neighbouring pair's shift explains it (:func:`similarity`; ``docs/tuning.md#similar``).
 SIMILAR, TONES = 0.6, 0.15
 #: Two frames both darker than this mean grey level (0-255) are not compared: too little
 #: light to tell a cut from noise (a fade's last frames, black frames between two shots).

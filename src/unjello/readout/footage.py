@@ -48,10 +48,8 @@ __all__ = ["MOTION_SIGMA", "ROTATION_EXPLAINS", "ROTATION_SIGMA", "ReadoutEstima
            "readout_preset", "lens_flags"]
 
 
-#: Weight of the trajectory's acceleration penalty when scoring a readout candidate, its
-#: reweighting rounds (an abrupt start or stop is not a smooth acceleration), and
-#: the vibration model's sinusoids and their highest frequency (cycles per frame interval:
-#: 48 Hz at 30 fps), as calibrated with ``benchmarks/readout.py`` (``docs/tuning.md``).
+#: The translation trajectory's acceleration penalty, its reweighting rounds, the vibration
+#: model's sinusoids and their top frequency (cycles a frame; ``docs/tuning.md#readout-estimate``).
 _SMOOTHNESS = 1e-4
 _SINUSOIDS = 6
 _ROBUST = 3
@@ -90,10 +88,8 @@ def _spectral_cost(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: 
     return sinusoid_pursuit(ta, tb, delta, weight, drift, _SINUSOIDS, _MAX_CYCLES)[1]
 
 
-#: The vibration model's estimate needs this confidence: drone jello scores 0.81-0.95 on
-#: the simulated clips of ``benchmarks/readout.py``, hand shake over a rolled street
-#: scanned right to left, its row flows wobbling at the poles (taken for jello), 0.56-0.65
-#: with estimates of 0.10-0.18 for 0.5-1.0.
+#: The vibration model's estimate needs this confidence: drone jello 0.81-0.95, a rolled
+#: street's poles wobbling 0.56-0.65 (``docs/tuning.md#_vibration_confidence``).
 _VIBRATION_CONFIDENCE = 0.7
 
 #: The shortest readout an estimate reports (a fraction of the frame interval).
@@ -106,9 +102,8 @@ ROTATION_SIGMA = 0.05
 #: in a moving car 0.86, its guess 0.4 short of the stated 1.0).
 ROTATION_EXPLAINS = 0.98
 
-#: The uncertainty (one sigma, fraction of the frame interval) given to a reliable
-#: estimate from the motion: its errors on the simulated clips of
-#: ``benchmarks/readout.py`` are within 0.015 where it says it is reliable.
+#: The uncertainty (one sigma, of the frame interval) of a reliable motion estimate: the
+#: simulated clips of ``benchmarks/readout.py`` are within 0.015 where it says it is reliable.
 MOTION_SIGMA = 0.02
 
 

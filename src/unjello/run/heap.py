@@ -22,9 +22,8 @@ from collections.abc import Callable
 
 __all__ = ["HELD_MAX", "TRIM_EVERY", "held", "trim"]
 
-#: Pictures written between looks at the heap: a trim walks it, and the memory it returns
-#: is faulted in again when next used (at 4K, trimming every picture: +2 s of system time
-#: over 60 frames; every ten: +0.1 s).
+#: Pictures written between trims of the heap: a trim's memory is faulted in again (at 4K,
+#: every picture +2 s of system time over 60 frames, every ten +0.1 s).
 TRIM_EVERY = 10
 
 #: Freed memory (bytes) the process keeps for its next allocations; above it, a trim.

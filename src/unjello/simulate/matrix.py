@@ -448,9 +448,8 @@ def cases() -> list[Case]:
     return out
 
 
-#: The cases of :func:`ci_slice`, by name: a few of every kind, small and short, among
-#: those the default corrects well (the slice guards what works; the whole matrix
-#: shows what does not).
+#: The cases of :func:`ci_slice`: a few of every kind, small and short, that the default
+#: corrects well (the slice guards what works; the whole matrix shows what does not).
 CI = ("pan/pan/photo/0", "pan/whip/sharp/1", "pan/tilt/photo/0", "pan/pan/parallax/4",
       "pan/rest/low/3", "pan/stop/photo/0", "shake/photo/6", "shake/sharp/7",
       "shake/parallax/3", "walk/sharp/1", "walk/photo/0", "jello/photo/2", "jello/photo/10",

@@ -255,9 +255,8 @@ class PictureWarper:
         the frame's edge and that no neighbour supplied (the edge repeated, or black).
     """
 
-    #: The pictures either side whose content may fill what a frame did not see: the
-    #: neighbours (:mod:`unjello.warp.fill.neighbours`), and the frames beyond them where a
-    #: neighbour's own view carries an object out (``around``'s keys are -REACH..REACH).
+    #: The pictures either side that may fill what a frame did not see: the neighbours, and
+    #: those beyond where a neighbour's view carries an object out (``around``'s -REACH..REACH).
     REACH = 2
 
     def __init__(self, timing: SensorTiming, warp: str = "remap", fill: str = "nearest",

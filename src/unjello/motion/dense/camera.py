@@ -41,9 +41,8 @@ OUTLIER_SPREAD = 3.0
 #: hundredths: then nothing is an outlier).
 OUTLIER_FLOOR = 0.5
 
-#: A knot of the row velocity that the equations reach with less than this share of the median
-#: knot's weight is partly unseen: its ridge fades and it is tied to its neighbours by up to
-#: :data:`KNOT_TIE` (relative to the total weight). (``docs/tuning.md#knot_seen``)
+#: A row-velocity knot reached with under this share of the median knot's weight is partly
+#: unseen: tied to its neighbours by up to KNOT_TIE (``docs/tuning.md#knot_seen``).
 KNOT_SEEN, KNOT_TIE = 0.1, 0.1
 
 def _interp_matrix(times: np.ndarray, t0: float, step: float, n: int) -> tuple[np.ndarray,

@@ -86,10 +86,8 @@ def rows_minus(rows: np.ndarray, field: np.ndarray) -> np.ndarray:
             - np.ascontiguousarray(field).reshape(h, 2 * w)).reshape(h, w, 2)
 
 
-#: Given a prior, :func:`fill_unreliable` uses it where reliable pixels weigh less than this around
-#: a pixel: a few stray "reliable" pixels (a wrong flow that passed the check) in content entering
-#: the frame otherwise gave the whole band beside them their flow (a 40 % pan, astronaut pair: mean
-#: displacement error 2.74 -> 1.09 px). (``docs/tuning.md#prior_below``)
+#: Given a prior, :func:`fill_unreliable` uses it where reliable pixels weigh less than this
+#: around a pixel: stray passing flow in entering content (``docs/tuning.md#prior_below``).
 PRIOR_BELOW = 0.05
 
 

@@ -43,21 +43,16 @@ __all__ = ["FOLD_WARNING", "DETAIL", "KEEP_WHOLE", "KEEP_ISLAND", "DenseFrame", 
 #: (``docs/tuning.md#fold_warning``)
 FOLD_WARNING = 0.002
 
-#: A frame whose map folds in blobs over more than ``KEEP_WHOLE`` of its pixels has them given the
-#: motion around them, with the whole object they are in
-#: (:func:`~unjello.motion.objects.folds.keep_whole`); above ``KEEP_ISLAND`` only those inside an
-#: object that moves on its own within the frame (an island). (``docs/tuning.md#keep_whole``)
+#: Folds over more than KEEP_WHOLE of a frame get the motion around them, whole objects
+#: (:func:`keep_whole`); above KEEP_ISLAND islands only (``docs/tuning.md#keep_whole``).
 KEEP_WHOLE, KEEP_ISLAND = 0.002, 0.0016
 
-#: Grey levels between the darkest and the brightest pixel of a 5 x 5 window below which the picture
-#: shows no detail there: a fold over flat sky draws nothing and is not reported
-#: (:func:`_on_detail`). (``docs/tuning.md#detail``)
+#: Grey-level range of a 5 x 5 window below which it shows no detail: a fold over flat sky
+#: draws nothing and is not reported (:func:`_on_detail`; ``docs/tuning.md#detail``).
 DETAIL = 10.0
 
-#: A neighbour whose flow carries a pixel more than this many pixels (of the working
-#: copy) outside the frame does not see it, and cannot say whether the flow missed it
-#: (:meth:`SafeField._missed`); a flow landing just outside, at the top or bottom rows,
-#: still counts.
+#: A neighbour whose flow carries a pixel this far (px, working copy) outside the frame does
+#: not see it and cannot say the flow missed it (:meth:`SafeField._missed`).
 BEYOND = 4.0
 
 

@@ -36,14 +36,12 @@ VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "s
 #: fps. (``docs/tuning.md#max_cycles``)
 MAX_CYCLES = 4.5
 
-#: The wobble test (:func:`wobble_test`): vibration makes up at least this share of the non-steady
-#: row flow that both halves of the frame share, and its wobble is at least ``SIGNAL`` times what
-#: the halves do not share (the measurement's noise). (``docs/tuning.md#share``)
+#: The wobble test: vibration is at least SHARE of the non-steady row flow both halves share,
+#: and SIGNAL times what they do not (:func:`wobble_test`; ``docs/tuning.md#share``).
 SHARE, SIGNAL = 0.4, 3.0
 
-#: The model comparison (:func:`choose_model`): the vibration model, fitted to the row flows of one
-#: half of the frame, predicts the other half's with at most this share of the smooth model's error.
-#: (``docs/tuning.md#prefer``)
+#: The vibration model, fitted to one half's row flows, predicts the other half's with at
+#: most this share of the smooth model's error (:func:`choose_model`; ``docs/tuning.md#prefer``).
 PREFER = 0.7
 #: ... and the smooth model misses the held-out half by at least this much (px).
 #: (``docs/tuning.md#visible``)
@@ -52,9 +50,8 @@ VISIBLE = 0.1
 #: A wobble above this one. (``docs/tuning.md#_wobble_max``)
 _WOBBLE_MAX = 0.03
 
-#: Frame pairs enter the vibration test only where both frames have this grey-level standard
-#: deviation (0-255): the noise of a fade from black gave a simulated pan a wobble of 0.42 % and the
-#: Big Buck Bunny trailer 3.3 %, both "vibration". (``docs/tuning.md#probe_contrast``)
+#: Pairs enter the vibration test where both frames have this grey-level deviation (a fade's
+#: noise read as vibration), waiting PROBE_WAIT x probe pairs (``docs/tuning.md#probe_contrast``).
 PROBE_CONTRAST, PROBE_WAIT = 6.0, 2
 
 #: Only pixels of two-dimensional texture enter the test (:func:`textured`): along an edge the flow

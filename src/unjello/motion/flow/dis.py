@@ -39,20 +39,17 @@ _FULL_RES_WIDTH = 480
 #: A row's flow weighs the share of its pixels within this many pixels of it
 #: (:func:`row_flows`' ``agree``; the dense method's row equations).
 ROW_AGREE = 1.5
-#: Motion of at least this share of the frame's width per frame counts as large: more than about two
-#: pixels of DIS's coarsest level (an eighth to a sixteenth of the copy).
-#: (``docs/tuning.md#large_motion``)
+#: Motion of this share of the width a frame is large: over about two pixels of DIS's
+#: coarsest level (``docs/tuning.md#large_motion``).
 LARGE_MOTION = 0.05
-#: The width of the copies the global translation is measured on, and the phase correlation response
-#: below which the second run must also match the frame better as a whole (a lower mean patch cost)
-#: to be used at all. (``docs/tuning.md#_shift_width``)
+#: Copies' width for the global translation, and the phase response below which its DIS run
+#: must also lower the mean patch cost to be used (``docs/tuning.md#_shift_width``).
 _SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
 #: Side (px) of the patches whose photometric cost picks between the two runs.
 _PICK_PATCH = 15
 
-#: A cheaper flow explains a frame pair (:func:`explains`) unless more than this share of its pixels
-#: land inside the other frame on grey levels unlike their own (blurred, by ``_PHOTO_LEVEL`` or four
-#: times the pair's median difference). (``docs/tuning.md#photo_miss``)
+#: A cheaper flow explains a pair (:func:`explains`) unless over this share of its pixels land
+#: on grey levels unlike their own (``docs/tuning.md#photo_miss``).
 PHOTO_MISS = 0.05
 
 #: ... a pixel misses where its grey level is off by more than this or four times the

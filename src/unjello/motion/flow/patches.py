@@ -20,9 +20,8 @@ __all__ = ["patch_cost", "map_cost", "costlier", "unmatched_entering", "refine_m
 #: Where content enters the frame (:func:`unmatched_entering`), a flow is kept only if its
 #: patch cost is at most this many times the median cost of the rest of the frame's ...
 ENTER_COST = 10.0
-#: ... and only on two-dimensional texture: the patch mean of the structure tensor's smaller
-#: eigenvalue (:func:`cv2.cornerMinEigenVal`, 5 px) at least this share of its 90th percentile in
-#: the frame. (``docs/tuning.md#enter_flat``)
+#: ... and only on 2-D texture: a patch's mean smaller eigenvalue of the structure tensor at
+#: least this share of the frame's 90th percentile (``docs/tuning.md#enter_flat``).
 ENTER_FLAT = 0.02
 #: ... and only where the flow outside the band moves as the translation does (its median within
 #: this share of it, 2 px at least). (``docs/tuning.md#enter_agree``)

@@ -22,9 +22,8 @@ PEAKS = 8
 #: A shift is checked only where the copies still overlap by this share of their width
 #: and of their height.
 OVERLAP = 0.25
-#: The cyclic peak is kept unless another lays the copies on each other where they overlap this many
-#: times better (a mean absolute difference under this share of its own).
-#: (``docs/tuning.md#better``)
+#: The cyclic peak is kept unless another lays the copies on each other this many times
+#: better (a mean absolute difference under this share of its own; ``docs/tuning.md#better``).
 BETTER = 0.5
 #: The share of the overlap's pixels, those that match best, whose mean absolute difference scores a
 #: shift: a near object moving on its own may cover the rest. (``docs/tuning.md#kept``)

@@ -33,18 +33,16 @@ __all__ = ["FOLD", "TEAR", "map_jacobian", "fold_share", "fold_blobs", "failed_b
 #: fold (at 0 or below: turned over); one it stretches to more than ``TEAR`` times, a tear.
 FOLD, TEAR = 0.25, 4.0
 
-#: An island (an object moving on its own, :func:`object_islands`) whose flow failed its
-#: check on at least this share of its pixels is kept whole with the folds
-#: (:func:`keep_whole`).
+#: An island (:func:`object_islands`) whose flow failed its check on at least this share of
+#: its pixels is kept whole with the folds (:func:`keep_whole`).
 ISLAND_FAILED = 0.2
 
 #: A piece of changing motion that touches the frame's border along more than this share
 #: of its length is the view itself (parallax of a road or a wall), not an object.
 _BORDER_CONTACT = 0.08
 
-#: An object that moves on its own is one the flow cannot follow (a spinner) only where the flow
-#: carries at least this share of its pixels, in blobs, onto grey levels unlike their own on every
-#: side (``missed`` of :func:`followed_objects`). (``docs/tuning.md#island_missed``)
+#: An island is one the flow cannot follow (a spinner) only where the flow lands this share
+#: of it, in blobs, on unlike grey levels all round (``docs/tuning.md#island_missed``).
 ISLAND_MISSED = 0.05
 
 #: Distance (px, at the working resolution) over which failed flow joins a blob's region
@@ -58,9 +56,8 @@ CHANGE_LEVEL = 12.0
 #: frames: the whip pans over texture lost 0.003-0.007x with such islands kept whole.
 CHANGE_PAN = 0.05
 
-#: What the camera's motion weighs in a kept region's fill against its surroundings' (their Gaussian
-#: weight: 0.5 at the region's edge, 1e-4 about four ``reach`` inside).
-#: (``docs/tuning.md#_camera_weight``)
+#: The camera motion's weight in a kept region's fill against its surroundings' (0.5 at the
+#: edge, 1e-4 about four ``reach`` inside; ``docs/tuning.md#_camera_weight``).
 _CAMERA_WEIGHT = 1e-4
 
 

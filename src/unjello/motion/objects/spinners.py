@@ -67,29 +67,24 @@ MAX_SPIN = 4 * np.pi
 WHOLE = 0.85
 #: At most this many objects a frame are fitted a motion of their own (the largest).
 MAX_OBJECTS = 6
-#: A rotation in the picture's plane sweeps a disc: an object longer than this many times its width
-#: (the spread of its pixels along its axes) is fitted no rotation.
-#: (``docs/tuning.md#max_elongation``)
+#: A rotation sweeps a disc: an object longer than this many times its width is fitted no
+#: rotation (``docs/tuning.md#max_elongation``).
 MAX_ELONGATION = 3.0
 #: Pixels around the failed flow (the seeds) that a drift is fitted on again where none
 #: explains an object's whole hull (:func:`keep_spinning`).
 TIGHT = 4
-#: An object is carried by a drift of its own where that explains it this many times better than the
-#: motion around it (:func:`keep_spinning`'s ``drift_gain``), below a rotation's ``min_gain``.
-#: (``docs/tuning.md#drift_gain``)
+#: An object drifts on its own where that explains it this many times better than the motion
+#: around it (:func:`keep_spinning`; ``docs/tuning.md#drift_gain``).
 DRIFT_GAIN = 2.5
 
-#: A region more than this share of which, carried by the camera's motion, lands outside both
-#: neighbours is fitted nothing (:func:`keep_spinning`): no frame can check a motion there.
-#: (``docs/tuning.md#unchecked``)
+#: A region over this share of which the camera's motion carries outside both neighbours is
+#: fitted nothing: no frame checks it (:func:`keep_spinning`; ``docs/tuning.md#unchecked``).
 UNCHECKED = 0.25
-#: With a neighbour on each side, one that the camera's motion carries more than this share of an
-#: object outside sees it too little to check a motion: the object is fitted as seen from the other
-#: alone (along the motion around it, :data:`ALONG`). (``docs/tuning.md#one_side``)
+#: A neighbour that sees over this share of an object carried outside cannot check it: the
+#: object is fitted from the other side alone (:data:`ALONG`; ``docs/tuning.md#one_side``).
 ONE_SIDE = 0.5
-#: Seen from one side only, a drift is taken only where it points the way the motion around the
-#: object does (the cosine of their angle at least this): a nearer object in a pan (parallax).
-#: (``docs/tuning.md#along``)
+#: Seen from one side, a drift is taken only where it points the way the motion around does
+#: (cosine at least this: a nearer object in a pan; ``docs/tuning.md#along``).
 ALONG = 0.7
 
 

@@ -32,15 +32,13 @@ HOLE = 0.02
 SOFT_EDGE = 0.6
 
 
-#: A rotation, or a drift against the motion around it (:data:`ALONG`), is used only where
-#: :data:`EDGED` of the pixels it explains have a gradient (3x3 Sobel, grey levels) of :data:`EDGE`
-#: or more. (``docs/tuning.md#edge``)
+#: A rotation, or a drift against the motion around it, is used only where EDGED of its pixels
+#: have a 3x3 Sobel gradient of EDGE or more (``docs/tuning.md#edge``).
 EDGE, EDGED = 20.0, 0.02
 
 
-#: Seen from one side only, a pixel the motion around a drifting object puts where the object lies
-#: in the neighbour (background it covered there) stays with the object only where the drift
-#: explains it outright. (``docs/tuning.md#hidden_cost``)
+#: Seen from one side, a pixel the motion around puts on the object's place in the neighbour
+#: stays with the object only where its drift explains it outright (``docs/tuning.md#hidden_cost``).
 HIDDEN_COST = 15.0
 
 

@@ -49,9 +49,8 @@ from .velocity import global_sample_time, initial_velocity, scanline_velocity
 
 __all__ = ["PaperConfig", "PaperMethod"]
 
-#: A frame is left as is where the Bezier velocity leaves its block rows' corrected
-#: motions more than this share of the spread (mean absolute deviation, px, x plus y)
-#: they have uncorrected, when that is above :data:`SHEAR_FLOOR` px.
+#: A frame is left as is where the velocity leaves its block rows this share of their spread
+#: (mean absolute deviation, px) uncorrected, that being over :data:`SHEAR_FLOOR`.
 UNEXPLAINED = 0.85
 SHEAR_FLOOR = 0.2
 #: A frame pair whose global motion and every local sample are below this (px) is still.
