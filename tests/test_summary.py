@@ -6,14 +6,15 @@ from unjello.config import CorrectionConfig
 from unjello.run.batch import run_job
 from unjello.summary import summarize
 from unjello.timing import SensorTiming
-from unjello.trajectory import FrameMotion, Reframe, Trajectory
+from unjello.trajectory import Diagnostics, FrameMotion, Reframe, Trajectory
 
 from .clips import make_clip
 
 
-def _frame(i, **kw):
+def _frame(i, ok=True, reframe=None, **said):
     z = np.zeros((8, 2))
-    return FrameMotion(i, float(i), z, z, **kw)
+    return FrameMotion(i, float(i), z, z, ok=ok, reframe=reframe or Reframe(),
+                       diagnostics=Diagnostics(**said))
 
 
 def test_the_summary_reads_the_frames_fields():
@@ -46,7 +47,7 @@ def test_what_no_frame_saw_is_said_and_given():
     assert "2 frame(s)" in line and "3.1% of frame 2" in line
     assert found.as_json(traj)["unseen"] == [0.004, 0.02, 0.031]
     back = FrameMotion.from_dict(traj.frames[2].to_dict())
-    assert back.unseen == 0.031
+    assert back.diagnostics.unseen == 0.031
 
 
 def test_batch_lines_carry_the_warnings(scene, tmp_path):

@@ -291,6 +291,7 @@ class Corrector:
                 out.append((planes, fm))
             else:
                 warped = self.warp(planes, fm, around)
-                out.append((warped, dataclasses.replace(fm, unseen=self.warp.unseen)))
+                out.append((warped, dataclasses.replace(fm, diagnostics=dataclasses.replace(
+                    fm.diagnostics, unseen=self.warp.unseen))))
             self._before.append(planes)
         return out

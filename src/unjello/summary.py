@@ -124,8 +124,8 @@ class RunSummary:
                 "entering_fraction": round(self.entering, 4),
                 "kept_frames": [i for i, _ in self.kept],
                 "folded_frames": [i for i, _ in self.folded],
-                "folds": [round(f.folds, 4) for f in traj.frames],
-                "unseen": [round(f.unseen, 4) for f in traj.frames],
+                "folds": [round(f.diagnostics.folds, 4) for f in traj.frames],
+                "unseen": [round(f.diagnostics.unseen, 4) for f in traj.frames],
                 "spun_frames": list(self.spun), "vibration": self.vibration,
                 "confidence": [round(f.confidence, 3) for f in traj.frames],
                 "stabilized": self.stabilized,
@@ -143,6 +143,7 @@ def summarize(traj: Trajectory, stabilize: tuple[float, object] | None = None) -
         The stabilisation's smoothness and crop, when it was on.
     """
     frames = traj.frames
+    said = [(f, f.diagnostics) for f in frames]
     n = len(frames)
     stabilized = None
     if stabilize is not None and n:
@@ -155,11 +156,11 @@ def summarize(traj: Trajectory, stabilize: tuple[float, object] | None = None) -
         frames=n,
         bridged=sum(not f.ok for f in frames),
         vibration=traj.vibration,
-        kept=tuple((f.index, f.kept) for f in frames if f.kept > 0),
-        folded=tuple((f.index, f.folds) for f in frames if f.folds > FOLD_WARNING),
-        spun=tuple(f.index for f in frames if f.spun > 0),
-        fallback=float(np.mean([f.fallback for f in frames])) if n else 0.0,
-        entering=float(np.mean([f.entering for f in frames])) if n else 0.0,
-        unseen=tuple((f.index, f.unseen) for f in frames if f.unseen > UNSEEN_NOTE),
+        kept=tuple((f.index, d.kept) for f, d in said if d.kept > 0),
+        folded=tuple((f.index, d.folds) for f, d in said if d.folds > FOLD_WARNING),
+        spun=tuple(f.index for f, d in said if d.spun > 0),
+        fallback=float(np.mean([d.fallback for _, d in said])) if n else 0.0,
+        entering=float(np.mean([d.entering for _, d in said])) if n else 0.0,
+        unseen=tuple((f.index, d.unseen) for f, d in said if d.unseen > UNSEEN_NOTE),
         calibration=frames[0].note if traj.method == "gyro" and n else "",
         stabilized=stabilized)

@@ -56,6 +56,7 @@ __all__ = [
     "to_top_bottom",
     "from_top_bottom",
     "coded_axes",
+    "scanline_displacement",
 ]
 
 Direction = Literal["top-bottom", "bottom-top", "left-right", "right-left"]
@@ -410,3 +411,40 @@ class ClipSpan:
         """Return how many frames the part holds of a clip of ``frames`` (inf: unknown)."""
         rest = max(0.0, frames - self.first_frame(fps))
         return min(round(self.duration.frames(fps)), rest) if self.duration is not None else rest
+
+
+def scanline_displacement(velocity: np.ndarray, timing: SensorTiming) -> np.ndarray:
+    """Integrate per-scanline velocity from the reference time (eq. 26).
+
+    Parameters
+    ----------
+    velocity : ndarray of shape (h, 2)
+        ``v'(t_r)`` for every scanline ``r``, px per frame interval.
+    timing : SensorTiming
+        Readout ratio and reference scanline.
+
+    Returns
+    -------
+    ndarray of shape (h, 2)
+        ``Delta(r) = integral from t_ref to t_r of v'(t) dt`` (trapezoid rule on the
+        scanline grid, whose step is ``rho / h``).
+
+    Examples
+    --------
+    A constant velocity of 3 px per frame with a full readout moves the last of 5 rows
+    by ``3 * 2/5`` relative to the middle row:
+
+    >>> d = scanline_displacement(np.tile([3.0, 0.0], (5, 1)), SensorTiming(1.0))
+    >>> np.round(d[:, 0], 3).tolist()
+    [-1.2, -0.6, 0.0, 0.6, 1.2]
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    h = v.shape[0]
+    dt = timing.readout / h
+    cum = np.zeros_like(v)
+    if h > 1:
+        cum[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
+    ref = timing.reference_row(h)
+    rows = np.arange(h, dtype=np.float64)
+    at_ref = np.array([np.interp(ref, rows, cum[:, k]) for k in range(2)])
+    return cum - at_ref

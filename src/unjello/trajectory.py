@@ -53,7 +53,7 @@ import io
 import json
 import os
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import cv2
@@ -62,8 +62,8 @@ import numpy as np
 from .errors import InputError, cannot_write
 from .timing import SensorTiming
 
-__all__ = ["FrameMotion", "Reframe", "Stretch", "Trajectory", "TrajectoryWriter", "SCHEMA_VERSION",
-           "EVENTS", "scanline_displacement", "pack", "unpack"]
+__all__ = ["Diagnostics", "FrameMotion", "Reframe", "Stretch", "Trajectory", "TrajectoryWriter",
+           "SCHEMA_VERSION", "EVENTS", "pack", "unpack"]
 
 SCHEMA_VERSION = 2
 FIELD_STEP = 8
@@ -111,6 +111,67 @@ EVENTS: dict[str, str] = {
 
 
 @dataclass(frozen=True)
+class Diagnostics:
+    """What a frame's motion rests on, as shares of its pixels (0-1; 0 where not measured).
+
+    Attributes
+    ----------
+    fallback : float
+        Dense methods: pixels whose flow was unreliable and which follow the camera
+        (per-scanline) motion instead.
+    entering : float
+        Dense methods: the part of ``fallback`` that is content entering the frame (no
+        neighbour saw it), as opposed to flow that failed its check.
+    kept : float
+        Dense methods: pixels given the motion of their surroundings because their own
+        folded or tore the picture (:func:`unjello.motion.objects.folds.keep_whole`).
+    folds : float
+        Dense methods: pixels in blobs where the applied map still folds or tears the
+        picture (:func:`unjello.motion.objects.folds.fold_share`): motion not followed.
+    spun : float
+        Dense methods: pixels given a rigid motion fitted to an object the flow failed on
+        (:func:`unjello.motion.objects.spinners.keep_spinning`): a rotation (a spinning
+        object) or a velocity of its own (a near object passing).
+    unseen : float
+        The output picture's share whose source lies beyond the frame's edge and that no
+        neighbouring frame supplied: set by the warper
+        (:attr:`unjello.warp.warper.PictureWarper.unseen`), 0 before warping.
+    """
+
+    fallback: float = 0.0
+    entering: float = 0.0
+    kept: float = 0.0
+    folds: float = 0.0
+    spun: float = 0.0
+    unseen: float = 0.0
+
+    def confidence(self, ok: bool = True) -> float:
+        """Share of the picture corrected by motion measured for it, 0-1.
+
+        One minus the pixels whose own motion was not measured -- their flow failed
+        (``fallback`` less ``entering``: content entering the frame is no failure, it
+        moves with the camera) or they were given the motion around them (``kept``; the
+        two mostly overlap, the larger counts) -- less those a rigid motion fitted to an
+        object explains (``spun``), and minus those where the correction still folds or
+        tears (``folds``). A frame bridged over a failure (``ok`` false) has 0.
+        """
+        if not ok:
+            return 0.0
+        unmeasured = max(self.fallback - self.entering, self.kept) - self.spun
+        doubt = max(unmeasured, 0.0) + self.folds
+        return float(np.clip(1.0 - doubt, 0.0, 1.0))
+
+    def to_dict(self) -> dict:
+        """Return the shares rounded to 1e-4, by name."""
+        return {f.name: round(float(getattr(self, f.name)), 4) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Diagnostics:
+        """Read the shares :meth:`to_dict` wrote (absent ones 0)."""
+        return cls(**{f.name: float(d.get(f.name, 0.0)) for f in fields(cls)})
+
+
+@dataclass(frozen=True)
 class FrameMotion:
     """Motion of one frame's scanlines.
 
@@ -128,29 +189,8 @@ class FrameMotion:
         False when the estimate was bridged over a failure (see ``note``).
     note : str
         Why the estimate is not a direct measurement, if so.
-    fallback : float
-        Dense methods: fraction of pixels whose flow was unreliable and which follow the
-        camera (per-scanline) motion instead.
-    entering : float
-        Dense methods: the part of ``fallback`` that is content entering the frame (no
-        neighbour saw it), as opposed to flow that failed its check.
-    kept : float
-        Dense methods: fraction of pixels given the motion of their surroundings because their
-        per-pixel motion folded or tore the picture
-        (:func:`unjello.motion.objects.folds.keep_whole`).
-    folds : float
-        Dense methods: fraction of pixels in blobs where the applied correction map folds
-        or tears the picture (:func:`unjello.motion.objects.folds.fold_share`): motion that was
-        not followed, such as a fast-spinning object.
-    spun : float
-        Dense methods: the share given a rigid motion fitted to an object the flow failed
-        on (:func:`unjello.motion.objects.spinners.keep_spinning`) rather than the motion
-        around it: a
-        rotation (a spinning object), or a velocity of its own (a near object passing).
-    unseen : float
-        Share of the output picture whose source lies beyond the frame's edge and that no
-        neighbouring frame supplied (the edge repeated, or black): set by the warper
-        (:attr:`unjello.warp.warper.PictureWarper.unseen`), 0 before warping.
+    diagnostics : Diagnostics
+        What the motion rests on, as shares of the picture (dense methods, the warper).
     field : ndarray of shape (hf, wf, 2), optional
         Per-pixel displacement for dense methods (``p = s - field[s]``), in pixels of
         the full frame but possibly sampled at a lower resolution (dense motion is
@@ -186,12 +226,7 @@ class FrameMotion:
     velocity: np.ndarray
     ok: bool = True
     note: str = ""
-    fallback: float = 0.0
-    entering: float = 0.0
-    kept: float = 0.0
-    folds: float = 0.0
-    spun: float = 0.0
-    unseen: float = 0.0
+    diagnostics: Diagnostics = Diagnostics()
     field: np.ndarray | None = None
     front: tuple[np.ndarray, ...] = ()
     neighbours: tuple[tuple[int, np.ndarray], ...] = ()
@@ -206,20 +241,8 @@ class FrameMotion:
 
     @property
     def confidence(self) -> float:
-        """Share of the picture corrected by motion measured for it, 0-1.
-
-        One minus the pixels whose own motion was not measured -- their flow failed
-        (``fallback`` less ``entering``: content entering the frame is no failure, it
-        moves with the camera) or they were given the motion around them (``kept``; the
-        two mostly overlap, the larger counts) -- less those a rigid motion fitted to an
-        object explains (``spun``), and minus those where the correction still
-        folds or tears (``folds``). A frame bridged over a failure (``ok`` false) has 0.
-        """
-        if not self.ok:
-            return 0.0
-        unmeasured = max(self.fallback - self.entering, self.kept) - self.spun
-        doubt = max(unmeasured, 0.0) + self.folds
-        return float(np.clip(1.0 - doubt, 0.0, 1.0))
+        """Share of the picture corrected by measured motion (:meth:`Diagnostics.confidence`)."""
+        return self.diagnostics.confidence(self.ok)
 
     def pixel_displacement(self, width: int) -> np.ndarray:
         """Return the per-pixel displacement at full resolution, shape ``(h, width, 2)``."""
@@ -243,12 +266,7 @@ class FrameMotion:
             "start": float(self.start),
             "ok": bool(self.ok),
             "note": self.note,
-            "fallback": round(float(self.fallback), 4),
-            "entering": round(float(self.entering), 4),
-            "kept": round(float(self.kept), 4),
-            "folds": round(float(self.folds), 4),
-            "spun": round(float(self.spun), 4),
-            "unseen": round(float(self.unseen), 4),
+            **self.diagnostics.to_dict(),
             "confidence": round(self.confidence, 4),
             "displacement": pack(self.displacement, 1e-4),
             "velocity": pack(self.velocity, 1e-4),
@@ -293,12 +311,7 @@ class FrameMotion:
             ok=bool(d.get("ok", True)),
             note=str(d.get("note", "")),
             events=tuple(str(e) for e in d.get("events", ())),
-            fallback=float(d.get("fallback", 0.0)),
-            entering=float(d.get("entering", 0.0)),
-            kept=float(d.get("kept", 0.0)),
-            folds=float(d.get("folds", 0.0)),
-            spun=float(d.get("spun", 0.0)),
-            unseen=float(d.get("unseen", 0.0)),
+            diagnostics=Diagnostics.from_dict(d),
             field=field,
             front=front,
             camera=unpack(d["camera"]).reshape(-1, 2) if d.get("camera") is not None else None,
@@ -557,40 +570,3 @@ class TrajectoryWriter:
         """Drop the partial file."""
         self._f.close()
         self._tmp.unlink(missing_ok=True)
-
-
-def scanline_displacement(velocity: np.ndarray, timing: SensorTiming) -> np.ndarray:
-    """Integrate per-scanline velocity from the reference time (eq. 26).
-
-    Parameters
-    ----------
-    velocity : ndarray of shape (h, 2)
-        ``v'(t_r)`` for every scanline ``r``, px per frame interval.
-    timing : SensorTiming
-        Readout ratio and reference scanline.
-
-    Returns
-    -------
-    ndarray of shape (h, 2)
-        ``Delta(r) = integral from t_ref to t_r of v'(t) dt`` (trapezoid rule on the
-        scanline grid, whose step is ``rho / h``).
-
-    Examples
-    --------
-    A constant velocity of 3 px per frame with a full readout moves the last of 5 rows
-    by ``3 * 2/5`` relative to the middle row:
-
-    >>> d = scanline_displacement(np.tile([3.0, 0.0], (5, 1)), SensorTiming(1.0))
-    >>> np.round(d[:, 0], 3).tolist()
-    [-1.2, -0.6, 0.0, 0.6, 1.2]
-    """
-    v = np.asarray(velocity, dtype=np.float64)
-    h = v.shape[0]
-    dt = timing.readout / h
-    cum = np.zeros_like(v)
-    if h > 1:
-        cum[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * dt, axis=0)
-    ref = timing.reference_row(h)
-    rows = np.arange(h, dtype=np.float64)
-    at_ref = np.array([np.interp(ref, rows, cum[:, k]) for k in range(2)])
-    return cum - at_ref

@@ -119,9 +119,9 @@ def correct(clip: Any, *, readout: float | str | None = None,
         for p, plane in enumerate(planes):
             np.copyto(np.asarray(dst[p]), plane)
         dst.props["UnjelloOk"] = int(fm.ok)
-        dst.props["UnjelloFallback"] = float(fm.fallback)
-        dst.props["UnjelloKept"] = float(fm.kept)
-        dst.props["UnjelloFolds"] = float(fm.folds)
+        dst.props["UnjelloFallback"] = float(fm.diagnostics.fallback)
+        dst.props["UnjelloKept"] = float(fm.diagnostics.kept)
+        dst.props["UnjelloFolds"] = float(fm.diagnostics.folds)
         dst.props["UnjelloConfidence"] = float(fm.confidence)
         return dst
 

@@ -1,8 +1,7 @@
 import numpy as np
 import pytest
 
-from unjello.timing import SensorTiming
-from unjello.trajectory import scanline_displacement
+from unjello.timing import SensorTiming, scanline_displacement
 from unjello.warp.maps import field_maps, resize_maps
 from unjello.warp.warper import PictureWarper, fill_holes, remap, resample_displacement, splat
 

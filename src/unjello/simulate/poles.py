@@ -200,9 +200,10 @@ def run(scene_name: str, frac: float, readout: float, frames: int, size: tuple[i
     for name, seen in (("two", True), ("one", False)):
         rows = [r for _, r, shown in bends if shown == seen]  # the output's, from the loop
         row[f"out_rows_{name}"] = float(np.mean(rows)) if rows else float("nan")
-    row["folded"] = f"{sum(f.folds > fold_warning for f in traj.frames)}/{len(traj.frames)}"
+    folded = sum(f.diagnostics.folds > fold_warning for f in traj.frames)
+    row["folded"] = f"{folded}/{len(traj.frames)}"
     row["unseen_true"] = float(np.mean([m[2].mean() for m in masks]))
-    row["unseen_said"] = float(np.mean([f.unseen for f in traj.frames]))
+    row["unseen_said"] = float(np.mean([f.diagnostics.unseen for f in traj.frames]))
     row["strip_share"] = float(np.mean([(m[0] | m[1] | m[2]).mean() for m in masks]))
     row["ratio"] = (np.mean([displacement_error(f, s.motion) for f, s in
                              zip(traj.frames, sim, strict=True)])

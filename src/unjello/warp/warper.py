@@ -7,7 +7,7 @@ pixel ``s`` of frame ``n`` belongs at (eq. 26, in our time unit and readout ``rh
 
 where ``t_ref`` is the time of the reference scanline (the middle one in the paper, or
 the first). The integral, ``Delta(s_y)``, depends only on the row, so all pixels of a
-scanline move together (:func:`~unjello.trajectory.scanline_displacement`). Two ways to apply it:
+scanline move together (:func:`~unjello.timing.scanline_displacement`). Two ways to apply it:
 
 * :func:`splat` -- the paper's forward mapping: the intensity of ``s`` is given to the
   four grid points nearest ``p``, each weighted inversely to its distance to ``p``;
@@ -96,7 +96,7 @@ def remap(image: np.ndarray, displacement: np.ndarray, fill: Fill = "nearest"
     image : ndarray of shape (h, w[, c])
         Frame in top-bottom orientation.
     displacement : ndarray of shape (h, 2)
-        Per-scanline ``Delta`` from :func:`~unjello.trajectory.scanline_displacement`.
+        Per-scanline ``Delta`` from :func:`~unjello.timing.scanline_displacement`.
     fill : {'nearest', 'black'}
         What to put where no scanline lands.
 

@@ -75,10 +75,10 @@ def test_content_entering_the_frame_is_told_apart_from_failed_flow(scene):
     out += method.flush()
     # The first and last frames see one neighbour: a band of about the pan's width enters.
     for fm in (out[0], out[-1]):
-        assert 0.5 * speed / w < fm.entering <= fm.fallback
-        assert fm.entering < 2.0 * speed / w
+        assert 0.5 * speed / w < fm.diagnostics.entering <= fm.diagnostics.fallback
+        assert fm.diagnostics.entering < 2.0 * speed / w
     # The middle frames see both neighbours: what one misses, the other saw.
-    assert all(fm.entering < 0.01 for fm in out[1:-1])
+    assert all(fm.diagnostics.entering < 0.01 for fm in out[1:-1])
 
 
 def test_flows_measured_ahead_on_threads_give_the_same_motion(scene):

@@ -73,7 +73,8 @@ def test_poles_in_parallax_keep_their_own_motion(scene):
                                                                      strict=True)])
     unc = np.mean([displacement_error(None, s.motion) for s in sim])
     assert err <= 0.17 * unc, (err, unc)
-    assert not any(f.kept or {"spinning", "folds"} & set(f.events) for f in traj.frames)
+    assert not any(f.diagnostics.kept or {"spinning", "folds"} & set(f.events)
+               for f in traj.frames)
 
 
 def test_the_strip_beyond_the_edge_comes_from_the_frame_that_saw_it():
@@ -282,7 +283,7 @@ def test_a_spinning_propeller_is_turned_back_and_its_background_is_corrected(sce
     assert ratio(traj.frames[-1:], sim[-1:], blades) < 0.3
     assert ratio(traj.frames, sim, lambda s: s.layer == 0) < 0.15
     inner = traj.frames[1:-1]
-    assert all(f.spun > 0.02 and "spinning" in f.events for f in inner)
+    assert all(f.diagnostics.spun > 0.02 and "spinning" in f.events for f in inner)
     assert all(len(f.front) == 1 for f in inner)
     grow = np.ones((25, 25), np.uint8)
     gains = [region_psnr(o, s.truth, m) - region_psnr(s.rolling, s.truth, m)
@@ -364,7 +365,7 @@ def test_a_fast_pan_one_pair_lost_keeps_the_pace_of_the_pairs_around_it():
     for f, s in zip(traj.frames, sim, strict=True):
         cam = f.camera if f.camera is not None else f.displacement
         assert np.linalg.norm(cam - s.motion.displacement, axis=1).mean() < 0.3
-    assert all(f.folds <= FOLD_WARNING for f in traj.frames)
+    assert all(f.diagnostics.folds <= FOLD_WARNING for f in traj.frames)
     colours = [layer.image[0, 0] for layer in layers]
     bends = [b for o, s in zip(out, sim, strict=True)
              for b, _, _ in pole_bends(o, s.truth, colours)]

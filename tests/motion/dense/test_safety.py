@@ -68,7 +68,7 @@ def test_a_fast_pan_over_flat_sky_reports_no_fold():
 
     sim, _ = pole_pan(data.rocket(), 0.4, 0.7)
     _, traj = correct_frames([s.rolling for s in sim], SensorTiming(0.7))
-    assert all(f.folds <= FOLD_WARNING for f in traj.frames)
+    assert all(f.diagnostics.folds <= FOLD_WARNING for f in traj.frames)
 
 
 def test_a_near_pole_s_drift_is_not_dropped_for_folds_in_the_sky():

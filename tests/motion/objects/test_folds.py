@@ -43,15 +43,15 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
     # given the motion around them, each spinner whole (the island of what moves unlike
     # both neighbours: issue 31), leaving none. Frame 5 (0.03 %, its folds on no island)
     # keeps them whole because frame 4 did and their flow fails again (35 %).
-    kept = [f.index for f in traj.frames if f.kept > 0]
+    kept = [f.index for f in traj.frames if f.diagnostics.kept > 0]
     assert kept == [0, 1, 2, 3, 4, 5]
     assert "kept-before" in traj.frames[5].events
     assert {"kept-folds", "kept-before"} & set(traj.frames[2].events)
-    assert all(f.folds < FOLD_WARNING for f in traj.frames)
+    assert all(f.diagnostics.folds < FOLD_WARNING for f in traj.frames)
     # Frame 3: the pink spinner turned back whole by a rotation fitted per scanline
     # (+0.10 turns per frame; frame 2 found it, at too little gain to use alone), 19 % of
     # the picture; the yellow one (-0.10) given the motion around it.
-    assert traj.frames[3].spun > 0.1 and traj.frames[3].events.count("spinning") == 1
+    assert traj.frames[3].diagnostics.spun > 0.1 and traj.frames[3].events.count("spinning") == 1
     # The confidence says how much is on motion measured for it: 0.32-0.77 (each spinner
     # whole, with a margin and the flat floor's failed flow, on the motion around it).
     assert 0.3 < min(f.confidence for f in traj.frames) < 0.5
@@ -59,8 +59,8 @@ def test_the_real_spinners_are_kept_whole_and_the_research_pairs_untouched(share
         root = shared_data / "pairs" / pair
         frames = [read_image(root / f"rs_{i}.png") for i in (0, 1)]
         _, traj = correct_frames(frames, SensorTiming(1.0))
-        assert max(f.folds for f in traj.frames) < FOLD_WARNING, pair
-        assert not any(f.kept for f in traj.frames), pair
+        assert max(f.diagnostics.folds for f in traj.frames) < FOLD_WARNING, pair
+        assert not any(f.diagnostics.kept for f in traj.frames), pair
 
 
 def test_keep_whole_puts_a_torn_patch_back_on_the_camera():

@@ -50,7 +50,7 @@ import numpy as np
 from ..._kernels.field import lands_inside
 from ..._kernels.pixelwise import residual_side
 from ...timing import SensorTiming
-from ...trajectory import FrameMotion
+from ...trajectory import Diagnostics, FrameMotion
 from ..flow.dis import (
     LARGE_MOTION,
     ROW_AGREE,
@@ -451,8 +451,8 @@ class DenseMethod(SafeField, ModelChoice):
         # What the frame's neighbours saw beyond its edge: their flows, for the warp's fill.
         neighbours = self._fill_flows(fr, rows.t_rows, rows.c_at, rows.u_rows)
         return FrameMotion(fr.index, fr.start, disp, rows.full(rows.velocity), ok=True,
-                           note=note, fallback=frac, entering=new, kept=kept, folds=folds,
-                           spun=spun, field=field, front=fronts, neighbours=neighbours,
+                           note=note, diagnostics=Diagnostics(frac, new, kept, folds, spun),
+                           field=field, front=fronts, neighbours=neighbours,
                            camera=rows.full(rows.whole), events=events)
 
     def _camera_rows(self, fr: DenseFrame, cam: CameraSolution) -> _CameraRows:

@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...timing import SensorTiming
-from ...trajectory import FrameMotion, scanline_displacement
+from ...timing import SensorTiming, scanline_displacement
+from ...trajectory import FrameMotion
 from .global_motion import BlockMatchConfig, global_motion
 from .refine import (
     LocalMatches,
