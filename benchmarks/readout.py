@@ -137,24 +137,29 @@ def hand_rates(seed: int, amp: float = 1.2):
 
 def rotating(frames: int = 16) -> None:
     """Print the estimate on a camera turning about three axes, through two lenses."""
+    from unjello.io.roundtrip import degrade
     from unjello.simulate import simulate_rotation
 
     scene = data.astronaut()
     scene = np.concatenate([np.concatenate([scene, scene[:, ::-1]], 1),
                             np.concatenate([scene[::-1], scene[::-1, ::-1]], 1)], 0)
-    lenses = {"pinhole, f 300 px": (300.0, None),
-              "wide (fisheye), f 240 px, k1 -0.02": (240.0, (-0.02, 0.01, -0.005, 0.001))}
+    lenses = {"pinhole, f 300 px": (300.0, None, False),
+              "wide (fisheye), f 240 px, k1 -0.02": (240.0, (-0.02, 0.01, -0.005, 0.001), False),
+              "the same, noise 3 and CRF 26": (240.0, (-0.02, 0.01, -0.005, 0.001), True)}
     print(f"\na camera turning about three axes (hand-held rates, {frames} frames of 480x384): "
           "true -> estimated +-uncertainty ('?' unknown), the lens fitted")
     errors = []
-    for name, (focal, distortion) in lenses.items():
+    for name, (focal, distortion, degraded) in lenses.items():
         print(f"  {name}:")
         for rho in (0.3, 0.6, 1.0):
             cells = []
             for seed in (1, 2):
                 sim, _ = simulate_rotation(scene, hand_rates(seed), SensorTiming(rho), frames,
                                            size=(480, 384), focal=focal, distortion=distortion)
-                est = estimate_readout([f.rolling for f in sim], max_frames=frames)
+                clip = [f.rolling for f in sim]
+                if degraded:
+                    clip = degrade(clip, seed=seed, noise=3.0, crf=26)
+                est = estimate_readout(clip, max_frames=frames)
                 state = "" if est.reliable else "?"
                 lens = describe_lens(est.lens) if est.lens is not None else est.model
                 cells.append(f"{est.readout:.3f}{state} +-{est.uncertainty:.3f} ({lens})")
