@@ -150,3 +150,18 @@ def test_phone_in_a_car_is_not_confidently_wrong(shared_data):
     assert 0.0 < est.best_guess <= 1.0
     assert est.uncertainty >= 0.1
     assert est.model == "rotation" and est.explained < ROTATION_EXPLAINS
+
+
+@pytest.mark.parametrize("model, reliable", [("rotation", True), ("smooth", False)])
+def test_pooling_trusts_a_turning_cameras_estimates_to_their_own_bound(model, reliable):
+    """TUM's frames 10-29 alone (0.62 +-0.056, unknown) and 30-50 (0.62 +-0.038) pool to
+    +-0.031: within the rotation model's 0.05, not within the lines' 0.025."""
+    from unjello.readout.footage import ReadoutEstimate, pool_estimates
+
+    empty = np.zeros(0)
+    clips = [ReadoutEstimate(1.0, 0.4, False, empty, empty, model, "none", 0.056, 0.619),
+             ReadoutEstimate(0.617, 0.6, True, empty, empty, model, "motion", 0.038, 0.617)]
+    pooled = pool_estimates(clips)
+    assert pooled.reliable == reliable and pooled.model == model
+    assert pooled.best_guess == pytest.approx(0.618, abs=0.001)
+    assert pooled.uncertainty == pytest.approx(0.031, abs=0.001)

@@ -243,7 +243,10 @@ def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
 
     Each clip's best guess counts by its uncertainty (inverse variance). Where the
     clips disagree more than their uncertainties allow (a reduced chi-square above 1),
-    the pooled uncertainty is widened by its square root (the Birge ratio).
+    the pooled uncertainty is widened by its square root (the Birge ratio). The pool is
+    reliable within the bound of its clips' model (:data:`ROTATION_SIGMA` where one is a
+    turning camera's, else the lines' ``CONFIDENT``), and carries their model where they
+    share one.
     """
     est = [e for e in estimates if np.isfinite(e.uncertainty) and np.isfinite(e.best_guess)]
     empty = np.zeros(0)
@@ -256,9 +259,13 @@ def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
     if len(est) > 1:
         chi2 = float(np.sum(w * (r - mean) ** 2) / (len(est) - 1))
         sigma *= max(1.0, np.sqrt(chi2))
-    reliable = sigma <= CONFIDENT
+    # Estimates of a turning camera are trusted to ROTATION_SIGMA, the others' to CONFIDENT.
+    models = {e.model for e in est}
+    bound = ROTATION_SIGMA if "rotation" in models else CONFIDENT
+    reliable = sigma <= bound
     return ReadoutEstimate(float(np.clip(mean, 0.05, 1.0)) if reliable else fallback,
-                           confidence_of(sigma), bool(reliable), empty, empty,
+                           float(1.0 / (1.0 + (sigma / bound) ** 2)), bool(reliable), empty,
+                           empty, models.pop() if len(models) == 1 else "smooth",
                            cue="pooled" if reliable else "none", uncertainty=sigma,
                            best_guess=_inside(mean))
 
@@ -422,9 +429,12 @@ def _turning(cells: list, times: np.ndarray, size: tuple[int, int], lens: Lens |
     reliable = bool(explains and sigma <= ROTATION_SIGMA
                     and _SHORTEST <= fit.readout <= 1.0 + sigma)
     guess = _inside(fit.readout) if np.isfinite(sigma) else float("nan")
-    note = "" if explains else (
+    note = "" if reliable else (
         f"a turning camera explains {100 * fit.explained:.0f}% of its motion (travel, "
-        f"traffic, parallax), too little to trust its readout ({guess:.2f} +-{sigma:.2f})")
+        f"traffic, parallax), too little to trust its readout ({guess:.2f} +-{sigma:.2f})"
+        if not explains else
+        f"the turning camera's readout varies too much over the clip ({guess:.2f} "
+        f"+-{sigma:.2f})")
     confidence = float(1.0 / (1.0 + (sigma / ROTATION_SIGMA) ** 2)) if explains else 0.0
     return ReadoutEstimate(guess if reliable else fallback, confidence, reliable,
                            fit.candidates, fit.costs, "rotation", uncertainty=sigma,
