@@ -277,6 +277,11 @@ class DenseMethod(SafeField, ModelChoice):
                     return False
                 job = job.result()
             self._pending.popleft()
+            if self.config.per_pixel and self._fine and cur.settings != self._flow_settings:
+                # Started before an object spun: again in full, however far ahead it began.
+                cur.settings = self._flow_settings
+                job, fresh = flow_pair(prev.image, cur.image, cur.settings,
+                                       entering=prev.index == 0), True
             job = self._steady(prev, cur, job)
             if self.config.per_pixel:
                 if fresh:

@@ -189,9 +189,13 @@ def probe_pair(prev: float, cur: float, flow: np.ndarray, ok: np.ndarray) -> Pro
     """Return a pair's starts and each half's rows, row flows and weights (:func:`row_flows`).
 
     A row's weight is the share of its pixels whose flow agrees with the row's
-    (:data:`~unjello.motion.flow.dis.ROW_AGREE`), as the camera solve weighs it.
+    (:data:`~unjello.motion.flow.dis.ROW_AGREE`), as the camera solve weighs it. The
+    halves split the reliable pixels evenly (at their median column): a frame whose one
+    side is blank still gives two halves to compare.
     """
-    half = flow.shape[1] // 2
+    counts = np.cumsum(ok.sum(axis=0))
+    half = int(np.searchsorted(counts, 0.5 * counts[-1])) if counts[-1] else flow.shape[1] // 2
+    half = min(max(half, 1), flow.shape[1] - 1)
     left, right = (row_flows(flow[:, c], ok[:, c], ROW_AGREE)
                    for c in (slice(0, half), slice(half, None)))
     return prev, cur, left, right
