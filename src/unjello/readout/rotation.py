@@ -149,6 +149,8 @@ def _window_cost(t_a: np.ndarray, t_b: np.ndarray, turn: np.ndarray, flow: np.nd
     (linear interpolation at both ends) of each of the three angles; the normal
     equations are assembled directly (twelve unknowns an equation).
     """
+    from ..motion.dense.camera import second_difference_band
+
     step = 1.0 / KNOTS
     t0 = float(min(t_a.min(), t_b.min())) - step
     n = int(np.ceil((max(float(t_a.max()), float(t_b.max())) + step - t0) / step)) + 2
@@ -175,14 +177,10 @@ def _window_cost(t_a: np.ndarray, t_b: np.ndarray, turn: np.ndarray, flow: np.nd
     # The acceleration penalty, per angle: second differences of samples three apart.
     pen = np.zeros((bw + 1, size))
     scale = SMOOTHNESS * weight.sum() * step * focal ** 2
-    d2 = np.zeros((n - 2, n))
-    r = np.arange(n - 2)
-    d2[r, r], d2[r, r + 1], d2[r, r + 2] = 1.0, -2.0, 1.0
-    p1 = d2.T @ d2
-    for lag in range(3):  # p1 is pentadiagonal: its diagonals at knot lags 0, 1, 2
-        diag = np.diagonal(p1, lag)                 # p1[i, i + lag], i < n - lag
+    second = second_difference_band(n)  # row 2 - lag: the knots' lag-th superdiagonal
+    for lag in range(3):
         for ch in range(3):
-            pen[bw - 3 * lag, 3 * (np.arange(n - lag) + lag) + ch] += scale * diag
+            pen[bw - 3 * lag, 3 * np.arange(n) + ch] += scale * second[2 - lag]
     w = base
     for it in range(ROBUST + 1):
         band = np.bincount(slot, (w[:, None] * vals[:, pi] * vals[:, qi]).ravel(),
