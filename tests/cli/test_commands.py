@@ -481,3 +481,30 @@ def test_a_stream_whose_timestamps_start_over_is_carried_on_and_broken_there(tmp
     with av.open(str(tmp_path / "out.mp4")) as c:
         pts = [f.pts for f in c.decode(video=0)]
     assert len(pts) == 16 and all(b > a for a, b in zip(pts, pts[1:], strict=False))
+
+
+def test_probe_estimates_the_readout_and_lens_from_a_turning_camera(tmp_path):
+    """``probe --estimate``: a camera turning about three axes through a 220 px pinhole,
+    read in 0.5 of the frame interval: the readout and the lens it fits."""
+    from skimage import data
+
+    from unjello.simulate import simulate_rotation
+
+    world = np.concatenate([data.astronaut(), data.astronaut()[::-1]], axis=0)
+
+    def rate(t):
+        t = np.asarray(t)[..., None]
+        return np.sin(2 * np.pi * np.array([1.3, 2.1, 0.9]) * t + np.array([0.0, 1.0, 2.0]))
+
+    sim, _ = simulate_rotation(world, rate, SensorTiming(0.5), 12, size=(320, 256),
+                               focal=220.0)
+    src = tmp_path / "frames"
+    src.mkdir()
+    for i, f in enumerate(sim):
+        write_image(src / f"{i:02d}.png", np.ascontiguousarray(f.rolling[..., :3]))
+    res = run("probe", src, "--estimate", "--json")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(res.stdout)["estimate"]
+    assert doc["reliable"] and doc["model"] == "rotation"
+    assert doc["readout"] == pytest.approx(0.5, abs=0.05)
+    assert doc["lens"]["focal"] == pytest.approx(220.0, rel=0.15)

@@ -470,12 +470,20 @@ def plot(motion: Path, output: Path, overwrite: bool) -> None:
 
 @cli.command()
 @click.argument("input", type=click.Path(path_type=Path))
+@click.option("--estimate", is_flag=True, help="Also estimate the readout and the lens from "
+              "the footage (its first 60 frames), as estimate-readout does.")
 @click.option("--json", "as_json", is_flag=True)
-def probe(input: Path, as_json: bool) -> None:
+def probe(input: Path, estimate: bool, as_json: bool) -> None:
     """Describe a video or a folder of frames, and the readout and lens correct would use."""
     from ..clip import describe
 
     doc = describe(input)
+    est = None
+    if estimate:
+        from ..readout.footage import estimate_readout_file, lens_flags
+
+        est = estimate_readout_file(input, direction=doc["direction"])
+        doc["estimate"] = est.as_json(costs=False)
     if as_json:
         click.echo(json.dumps(doc))
         return
@@ -503,6 +511,10 @@ def probe(input: Path, as_json: bool) -> None:
     if d["lens"]:
         click.echo(f"lens: focal {d['lens']['focal']:.0f} px, fisheye k "
                    + ", ".join(f"{v:.3g}" for v in d["lens"]["distortion"]))
+    if est is not None:
+        click.echo(f"from the footage: {est.describe()}")
+        if est.lens is not None and est.reliable:
+            click.echo(f"  its lens, fitted to the motion: {lens_flags(est.lens)}")
 
 
 for _command in (readout, estimate_readout, cameras, export_gyroflow):
