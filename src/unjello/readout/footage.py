@@ -41,7 +41,7 @@ import numpy as np
 from ..lens import Lens
 from ..timing import to_top_bottom
 from .lines import CONFIDENT, LineCue, confidence_of, line_readout
-from .rotation import WINDOW, describe_lens
+from .rotation import WINDOW, describe_lens, parabola_minimum
 
 __all__ = ["MOTION_SIGMA", "ROTATION_EXPLAINS", "ROTATION_SIGMA", "ReadoutEstimate",
            "estimate_readout", "estimate_readout_file", "pool_estimates", "estimate_clips",
@@ -382,12 +382,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
                                         _SMOOTHNESS, robust=_ROBUST).cost)
         costs[j] = total
     best = int(np.argmin(costs))
-    rho = float(candidates[best])
-    if 0 < best < candidates.size - 1:
-        a, b, c = costs[best - 1:best + 2]
-        den = a - 2 * b + c
-        if den > 0:
-            rho = float(rho + 0.05 * 0.5 * (a - c) / den)
+    rho = parabola_minimum(candidates, costs)
     spread = float(np.median(costs) - costs[best])
     confidence = float(np.clip(spread / (np.median(costs) + 1e-12), 0.0, 1.0))
     if variation < min_variation:

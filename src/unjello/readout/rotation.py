@@ -28,7 +28,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 from ..lens import Lens
 
 __all__ = ["CellFlows", "RotationFit", "cell_flows", "describe_lens", "fit_rotation",
-           "rotation_costs"]
+           "parabola_minimum", "rotation_costs"]
 
 #: Cells across the frame's width whose median flow is an equation pair.
 CELLS = 24
@@ -286,7 +286,7 @@ class RotationFit:
     spread: float
 
 
-def _minimum(candidates: np.ndarray, costs: np.ndarray) -> float:
+def parabola_minimum(candidates: np.ndarray, costs: np.ndarray) -> float:
     """Return the parabola's minimum through the lowest cost and its neighbours."""
     b = int(np.argmin(costs))
     if 0 < b < costs.size - 1:
@@ -351,14 +351,14 @@ def fit_rotation(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int
         lens, turning = best, best.focal < far.focal
     per_window, motion = rotation_costs(pairs, times, lens, size, candidates)
     costs = per_window.sum(axis=0)
-    rho = _minimum(candidates, costs)
+    rho = parabola_minimum(candidates, costs)
     b = int(np.argmin(costs))
     explained = float(1.0 - costs[b] / max(float(motion[:, b].sum()), 1e-12))
-    spread = float(np.std([_minimum(candidates, row) for row in per_window]))
+    spread = float(np.std([parabola_minimum(candidates, row) for row in per_window]))
     if b in (0, candidates.size - 1) or len(per_window) < 3:
         sigma = float("inf")
     else:
-        loo = np.array([_minimum(candidates, costs - row) for row in per_window])
+        loo = np.array([parabola_minimum(candidates, costs - row) for row in per_window])
         k = len(loo)
         sigma = float(np.sqrt((k - 1) / k * np.sum((loo - loo.mean()) ** 2)))
     return RotationFit(rho, sigma, lens, candidates, costs, lens_costs, turning, explained,
