@@ -168,8 +168,9 @@ def resolve_timing(config: CorrectionConfig, *, path: Path, video_fps: float | N
                                 "this clip's, so its readout is not used")
                 found = None
             else:
-                messages.append(f"the motion is too weak or too uniform to estimate the "
-                                f"readout (confidence {est.confidence:.2f})")
+                why = est.note or "the motion is too weak or too uniform to tell"
+                messages.append(f"the footage cannot tell its readout: {why} "
+                                f"(confidence {est.confidence:.2f})")
         if stated is not None:
             sources["readout"] = stated.source
             readout = ratio(Milliseconds(stated.milliseconds))
