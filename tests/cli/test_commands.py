@@ -508,3 +508,9 @@ def test_probe_estimates_the_readout_and_lens_from_a_turning_camera(tmp_path):
     assert doc["reliable"] and doc["model"] == "rotation"
     assert doc["readout"] == pytest.approx(0.5, abs=0.05)
     assert doc["lens"]["focal"] == pytest.approx(220.0, rel=0.15)
+    # estimate-readout with the lens known: that lens, not a fitted one.
+    known = run("estimate-readout", src, "--focal", "220")
+    assert known.returncode == 0, known.stderr
+    assert "pinhole f 220" in known.stdout and "fitted to the motion" not in known.stdout
+    line = clean_failure(run("estimate-readout", src, "--distortion", "0,0,0,0"))
+    assert line == "unjello: error: --distortion needs --focal: the lens's focal length in pixels"

@@ -165,3 +165,23 @@ def test_pooling_trusts_a_turning_cameras_estimates_to_their_own_bound(model, re
     assert pooled.reliable == reliable and pooled.model == model
     assert pooled.best_guess == pytest.approx(0.618, abs=0.001)
     assert pooled.uncertainty == pytest.approx(0.031, abs=0.001)
+
+
+def test_a_lens_the_windows_disagree_on_widens_the_readouts_uncertainty(monkeypatch):
+    """Windows whose own focal lengths scatter by 0.0327 (in log focal length), under a
+    readout that moves 0.5 a unit of it: the lens's share of the uncertainty is 0.5 x
+    0.0327 (the windows' spread, not its standard error)."""
+    own = np.array([-0.04, 0.0, 0.04] * 4)
+    candidates = np.round(np.arange(0.3, 1.0001, 0.05), 4)
+
+    def costs(log_focal):
+        rho = 0.6 + 0.5 * log_focal
+        return (50.0 * (log_focal - own)[:, None] ** 2
+                + (candidates[None, :] - rho) ** 2)
+
+    def fake(pairs, times, lens, size, readouts, every=1):
+        return costs(np.log(lens.focal / 500.0)), None
+    monkeypatch.setattr(rotation, "rotation_costs", fake)
+    sigma = rotation._lens_sigma([], np.zeros(0), (100, 100), Lens(500.0), candidates,
+                                 costs(0.0))
+    assert sigma == pytest.approx(0.5 * float(np.std(own)), rel=0.02)

@@ -58,23 +58,36 @@ def readout(image: Path, frequency: float, fps: float | None, direction: str,
               help="Frames analysed from the start of each input.")
 @click.option("--save-preset", type=click.Path(path_type=Path),
               help="Write the (pooled) readout as a preset file for correct --preset.")
+@click.option("--focal", type=click.FloatRange(min=0, min_open=True),
+              help="The lens's focal length in pixels, where known (else fitted to the "
+              "motion).")
+@click.option("--distortion", help="Its fisheye distortion k1,k2,k3,k4 (OpenCV's model).")
 @click.option("-y", "--overwrite", is_flag=True, help="Replace the preset file.")
 @click.option("--json", "as_json", is_flag=True)
 def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
-                     save_preset: Path | None, overwrite: bool, as_json: bool) -> None:
+                     save_preset: Path | None, focal: float | None, distortion: str | None,
+                     overwrite: bool, as_json: bool) -> None:
     """Estimate the readout of INPUTS (videos or folders, one camera mode) from the footage.
 
     Each is read from its motion and from the lean of its straight lines; several are
     pooled by their uncertainties (a camera mode's readout does not change). A camera
     that turns is fitted as a rotation per scanline through a lens, which is fitted too
-    and printed as the flags that give it to correct.
+    (unless --focal gives it) and printed as the flags that give it to correct.
     """
+    from ..config import CorrectionConfig
     from ..io.sink import check_new, replace, temp_path
+    from ..lens import Lens
     from ..readout.footage import estimate_clips, lens_flags, readout_preset
 
+    if distortion is not None and focal is None:
+        raise UnjelloError("--distortion needs --focal: the lens's focal length in pixels")
+    config = CorrectionConfig().with_options(
+        "command line", **{k: v for k, v in {"focal": focal, "distortion": distortion}.items()
+                           if v is not None})
+    lens = Lens(config.gyro.focal, config.gyro.distortion) if config.gyro.focal else None
     if save_preset is not None:
         check_new(save_preset, overwrite)
-    rows, best = estimate_clips(inputs, direction=direction, max_frames=frames)
+    rows, best = estimate_clips(inputs, direction=direction, max_frames=frames, lens=lens)
     if save_preset is not None:
         if not best.reliable:
             from ..clip import database_readout
@@ -98,7 +111,7 @@ def estimate_readout(inputs: tuple[Path, ...], direction: str, frames: int,
         return
     for path, _, est in rows:
         click.echo(est.describe() if len(rows) == 1 else f"{path}: {est.describe()}")
-        if est.lens is not None and est.reliable:
+        if est.lens is not None and est.reliable and lens is None:
             click.echo(f"  its lens, fitted to the motion: {lens_flags(est.lens)}")
     if len(rows) > 1:
         click.echo(f"pooled over {len(rows)} inputs: {best.describe()}")

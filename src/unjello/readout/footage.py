@@ -479,9 +479,11 @@ def estimate_readout_file(src: str | os.PathLike, *, direction: str = "top-botto
 
 
 def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-bottom",
-                   max_frames: int = 60
+                   max_frames: int = 60, lens: Lens | None = None
                    ) -> tuple[list[tuple[str, float | None, ReadoutEstimate]], ReadoutEstimate]:
     """Estimate the readout of each clip of one camera mode, and pool them.
+
+    ``lens``: the camera's lens where known (else the rotation model fits one per clip).
 
     Returns
     -------
@@ -506,7 +508,7 @@ def estimate_clips(paths: Iterable[str | os.PathLike], *, direction: str = "top-
         with FrameSource(path) as source:
             fps = source.info.fps
         rows.append((str(path), fps, estimate_readout_file(path, direction=direction,
-                                                           max_frames=max_frames)))
+                                                           max_frames=max_frames, lens=lens)))
     rates = sorted({round(fps, 3) for _, fps, _ in rows if fps})
     if len(rates) > 1:
         raise SettingsError(f"the clips' frame rates differ ({', '.join(map(str, rates))} fps): "

@@ -50,6 +50,9 @@ FOCALS = (0.3, 0.42, 0.6, 0.85, 1.2, 1.7, 2.4, 4.0)
 FISHEYE_K1 = (0.0, 0.12, 0.24)
 #: Windows (spread over the clip) the lens is chosen on.
 LENS_WINDOWS = 8
+#: Focal lengths either side of a fitted one (this ratio) that each window's own is read
+#: between: the windows' disagreement on the lens enters the readout's uncertainty.
+LENS_STEP = 1.1
 
 
 @dataclass(frozen=True)
@@ -329,6 +332,7 @@ def fit_rotation(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int
         lens_costs[describe_lens(trial)] = float(c.min())
         return float(c.min())
     far = Lens(FOCALS[-1] * w)
+    fitted = lens is None
     if lens is not None:
         turning = score(lens) < score(far)
     else:
@@ -361,5 +365,32 @@ def fit_rotation(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int
         loo = np.array([parabola_minimum(candidates, costs - row) for row in per_window])
         k = len(loo)
         sigma = float(np.sqrt((k - 1) / k * np.sum((loo - loo.mean()) ** 2)))
+        if fitted and turning:
+            sigma = float(np.hypot(sigma, _lens_sigma(pairs, times, size, lens, candidates,
+                                                      per_window)))
     return RotationFit(rho, sigma, lens, candidates, costs, lens_costs, turning, explained,
                        spread)
+
+
+def _lens_sigma(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int],
+                lens: Lens, candidates: np.ndarray, per_window: np.ndarray) -> float:
+    """Return the readout's uncertainty from the fitted lens's.
+
+    That is how far the readout moves when the focal length moves by the windows'
+    disagreement on it. Each window's own focal length is the parabola's minimum (in log
+    focal length) through its lowest costs at ``f / LENS_STEP``, ``f`` and ``f LENS_STEP``; their
+    standard deviation (not divided by the windows' number: a lens the windows disagree
+    on is one the model does not pin down, however long the clip) moves the focal
+    length, and the readout follows the total cost's minimum between the three.
+    """
+    grid = [rotation_costs(pairs, times, Lens(lens.focal * s, lens.k), size, candidates)[0]
+            for s in (1.0 / LENS_STEP, LENS_STEP)]
+    stack = np.stack([grid[0], per_window, grid[1]])         # (3, windows, readouts)
+    logs = np.log(LENS_STEP) * np.array([-1.0, 0.0, 1.0])
+    own = [parabola_minimum(logs, stack[:, w].min(axis=1)) for w in range(stack.shape[1])]
+    spread = float(np.std(own))
+    readouts = np.array([parabola_minimum(candidates, stack[i].sum(axis=0)) for i in range(3)])
+    # The readout's slope in log focal length (a parabola through the three), at +- spread.
+    fit = np.polyfit(logs, readouts, 2)
+    moved = np.polyval(fit, np.array([-spread, spread]))
+    return float(0.5 * abs(moved[1] - moved[0]))
