@@ -174,14 +174,14 @@ def test_a_lens_the_windows_disagree_on_widens_the_readouts_uncertainty(monkeypa
     own = np.array([-0.04, 0.0, 0.04] * 4)
     candidates = np.round(np.arange(0.3, 1.0001, 0.05), 4)
 
-    def costs(log_focal):
+    def costs(log_focal, readouts):
         rho = 0.6 + 0.5 * log_focal
         return (50.0 * (log_focal - own)[:, None] ** 2
-                + (candidates[None, :] - rho) ** 2)
+                + (readouts[None, :] - rho) ** 2)
 
     def fake(pairs, times, lens, size, readouts, every=1):
-        return costs(np.log(lens.focal / 500.0)), None
+        return costs(np.log(lens.focal / 500.0), readouts), None
     monkeypatch.setattr(rotation, "rotation_costs", fake)
     sigma = rotation._lens_sigma([], np.zeros(0), (100, 100), Lens(500.0), candidates,
-                                 costs(0.0))
+                                 costs(0.0, candidates))
     assert sigma == pytest.approx(0.5 * float(np.std(own)), rel=0.02)

@@ -53,6 +53,8 @@ LENS_WINDOWS = 8
 #: Focal lengths either side of a fitted one (this ratio) that each window's own is read
 #: between: the windows' disagreement on the lens enters the readout's uncertainty.
 LENS_STEP = 1.1
+#: Readouts (within this of the fit's) the lens's share of the uncertainty is read over.
+LENS_NEAR = 0.1
 
 
 @dataclass(frozen=True)
@@ -381,15 +383,21 @@ def _lens_sigma(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int]
     focal length) through its lowest costs at ``f / LENS_STEP``, ``f`` and ``f LENS_STEP``; their
     standard deviation (not divided by the windows' number: a lens the windows disagree
     on is one the model does not pin down, however long the clip) moves the focal
-    length, and the readout follows the total cost's minimum between the three.
+    length, and the readout follows the total cost's minimum between the three. All
+    are read over the readouts within :data:`LENS_NEAR` of the fit's (a fifth of the
+    cost of all of them).
     """
-    grid = [rotation_costs(pairs, times, Lens(lens.focal * s, lens.k), size, candidates)[0]
+    rho = parabola_minimum(candidates, per_window.sum(axis=0))
+    near = np.abs(candidates - rho) <= LENS_NEAR + 1e-9
+    near[np.argsort(np.abs(candidates - rho))[:3]] = True
+    sub = candidates[near]
+    grid = [rotation_costs(pairs, times, Lens(lens.focal * s, lens.k), size, sub)[0]
             for s in (1.0 / LENS_STEP, LENS_STEP)]
-    stack = np.stack([grid[0], per_window, grid[1]])         # (3, windows, readouts)
+    stack = np.stack([grid[0], per_window[:, near], grid[1]])  # (3, windows, readouts)
     logs = np.log(LENS_STEP) * np.array([-1.0, 0.0, 1.0])
     own = [parabola_minimum(logs, stack[:, w].min(axis=1)) for w in range(stack.shape[1])]
     spread = float(np.std(own))
-    readouts = np.array([parabola_minimum(candidates, stack[i].sum(axis=0)) for i in range(3)])
+    readouts = np.array([parabola_minimum(sub, stack[i].sum(axis=0)) for i in range(3)])
     # The readout's slope in log focal length (a parabola through the three), at +- spread.
     fit = np.polyfit(logs, readouts, 2)
     moved = np.polyval(fit, np.array([-spread, spread]))
