@@ -41,7 +41,7 @@ import numpy as np
 from ..lens import Lens
 from ..timing import to_top_bottom
 from .lines import CONFIDENT, LineCue, confidence_of, line_readout
-from .rotation import WINDOW, describe_lens, parabola_minimum
+from .rotation import WINDOW, cell_flows, describe_lens, fit_rotation, parabola_minimum
 
 __all__ = ["MOTION_SIGMA", "ROTATION_EXPLAINS", "ROTATION_SIGMA", "ReadoutEstimate",
            "estimate_readout", "estimate_readout_file", "pool_estimates", "estimate_clips",
@@ -216,7 +216,7 @@ def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> Readou
                                    lines_agree=agree)
     if lines.confident:
         return dataclasses.replace(
-            motion, readout=float(np.clip(lines.readout, 0.05, 1.0)),
+            motion, readout=_inside(lines.readout),
             confidence=confidence_of(lines.uncertainty), reliable=True, cue="lines",
             uncertainty=lines.uncertainty, best_guess=_inside(lines.readout))
     # Neither can tell: the two best guesses by their uncertainties, for pooling.
@@ -263,7 +263,7 @@ def pool_estimates(estimates: Iterable[ReadoutEstimate], fallback: float = 1.0
     models = {e.model for e in est}
     bound = ROTATION_SIGMA if "rotation" in models else CONFIDENT
     reliable = sigma <= bound
-    return ReadoutEstimate(float(np.clip(mean, 0.05, 1.0)) if reliable else fallback,
+    return ReadoutEstimate(_inside(mean) if reliable else fallback,
                            float(1.0 / (1.0 + (sigma / bound) ** 2)), bool(reliable), empty,
                            empty, models.pop() if len(models) == 1 else "smooth",
                            cue="pooled" if reliable else "none", uncertainty=sigma,
@@ -314,7 +314,6 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
     from ..motion.dense.method import DenseConfig
     from ..motion.dense.vibration import detect_vibration
     from ..motion.flow.dis import FlowSettings, flow_pair, half_row_flows, row_flows
-    from .rotation import cell_flows
 
     grey, times = [], []
     start_list = list(starts) if starts is not None else None
@@ -391,7 +390,7 @@ def estimate_readout(frames: Iterable[np.ndarray], *, direction: str = "top-bott
                               else min_confidence)
     if best == 0:  # no minimum inside the candidates: the cost falls on beyond them
         reliable = False
-    from_motion = ReadoutEstimate(float(np.clip(rho, 0.05, 1.0)) if reliable else fallback,
+    from_motion = ReadoutEstimate(_inside(rho) if reliable else fallback,
                                   confidence, reliable, candidates, costs,
                                   "vibration" if vibrating else "smooth",
                                   uncertainty=MOTION_SIGMA if reliable else float("inf"),
@@ -412,8 +411,6 @@ def _turning(cells: list, times: np.ndarray, size: tuple[int, int], lens: Lens |
     readout; where its lens is no better than the longest focal length (a translation),
     the translation model's estimate ``translation`` stands.
     """
-    from .rotation import fit_rotation
-
     fit = fit_rotation(cells, times, size, lens)
     if not fit.turning:
         return translation
