@@ -70,3 +70,12 @@ def test_a_drone_that_takes_off_switches_to_the_vibration_model():
               for m in s["models"]]
     assert [m for m, _ in models] == ["smooth", "vibration"], row["stretches"]
     assert row["ratio"] < 0.2, row
+
+
+def test_a_vibration_near_a_multiple_of_the_frame_rate_is_found():
+    # 4.14 px across at 2.99 cycles a frame interval (0.06 of it visible in a frame
+    # pair), beside 0.88 px at 2.96 and 2.11 px up and down at 2.26: picked from what a
+    # smooth trajectory left and solved with a ridge on the amplitudes it came out 0.41x.
+    case = next(c for c in cases() if c.name == "jello/photo/25")
+    row = score(case, _correct)
+    assert row["vibration"] and row["ratio"] < 0.1, row

@@ -18,17 +18,13 @@ import numpy as np
 from scipy import linalg
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["BLAS", "SINE_RIDGE", "ROBUST_KNEE", "KNOT_SEEN", "KNOT_TIE", "OUTLIER_SPREAD",
+__all__ = ["BLAS", "ROBUST_KNEE", "KNOT_SEEN", "KNOT_TIE", "OUTLIER_SPREAD",
            "OUTLIER_FLOOR", "CameraSolution", "solve_camera_trajectory", "solve_reweighted",
            "second_difference_band"]
 
 # The camera solves are small (a few hundred unknowns): one BLAS thread is faster, and
 # BLAS threads spinning beside the encoder's cost ten times more (measured: 25 vs 3 ms).
 BLAS = ThreadpoolController()
-
-#: Ridge on the amplitudes of the trajectory's sinusoids, relative to the total weight: a
-#: sinusoid the frame differences barely see must not fit noise (``docs/tuning.md``).
-SINE_RIDGE = 1e-3
 
 #: Acceleration beyond this many times the median is penalised by its size rather than its
 #: square when ``robust`` rounds are asked for (``benchmarks/readout.py``, docs/tuning.md).
@@ -285,8 +281,6 @@ def solve_camera_trajectory(t_a: np.ndarray, t_b: np.ndarray, rows: np.ndarray |
         # the top of a fast vertical pan, flat sky) is tied to its neighbours instead of
         # pulled to zero, which stopped those rows' camera (:func:`_knot_penalty`).
         c_uu[:ku, :ku] += scale * _knot_penalty(np.diag(c_uu)[:ku])
-    if freqs.size:  # near a multiple of the frame rate a sinusoid is nearly invisible
-        c_uu[ku:, ku:] += SINE_RIDGE * scale * np.eye(k - ku)
     jitter = 1e-9 * ((band[bw].sum() + np.trace(c_uu)) / (n + k) + 1e-12)
     band[bw] += jitter
     c_uu += jitter * np.eye(k)

@@ -61,7 +61,7 @@ from ..flow.dis import (
     row_flows,
 )
 from ..objects.rigid import PathTrack
-from .camera import SINE_RIDGE, CameraSolution, solve_camera_trajectory, solve_reweighted
+from .camera import CameraSolution, solve_camera_trajectory, solve_reweighted
 from .choice import ModelChoice
 from .config import DenseConfig
 from .field import (
@@ -78,8 +78,8 @@ from .vibration import (
     PROBE_CONTRAST,
     PROBE_WAIT,
     VIBRATION,
+    pick_frequencies,
     probe_pair,
-    sinusoid_pursuit,
     textured,
 )
 
@@ -408,15 +408,11 @@ class DenseMethod(SafeField, ModelChoice):
             solve = solve_reweighted if len(eqs) > 1 else solve_camera_trajectory
             return solve(t_a, t_b, rows, delta, wgt, step, smoothness)
         # A vibration's frequencies hold for a while: picked again every 8 frames, from
-        # what the smooth trajectory leaves of every 4th row equation (the choice costs
-        # far more than the solve).
+        # every 4th row equation (the choice costs far more than the solve).
         if self._freqs is None or pairs[1] - self._freqs[0] >= 8:
             sub = slice(None, None, 4)
-            sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
-            left = delta[sub] - sol.differences(t_a[sub], t_b[sub], rows[sub])
-            picked, _ = sinusoid_pursuit(t_a[sub] - sol.t0, t_b[sub] - sol.t0, left, wgt[sub],
-                                         np.zeros((t_a[sub].size, 0)), self.config.sinusoids,
-                                         ridge=SINE_RIDGE)
+            picked = pick_frequencies(t_a[sub], t_b[sub], delta[sub], wgt[sub],
+                                      self.config.sinusoids)
             self._freqs = (pairs[1], picked)
         return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness,
                                        freqs=self._freqs[1])

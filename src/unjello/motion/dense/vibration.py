@@ -21,16 +21,21 @@ import cv2
 import numpy as np
 
 from ..flow.dis import ROW_AGREE, row_flows
-from .camera import SINE_RIDGE, solve_camera_trajectory
+from .camera import solve_camera_trajectory
 
 __all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE",
            "SIGNAL", "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test",
-           "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit"]
+           "SINE_RIDGE", "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit",
+           "pick_frequencies"]
 
 #: Settings for vibration near or above the frame rate (drone "jello").
 #: (``docs/tuning.md#vibration``)
 VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "sinusoids": 6,
                              "refinement": None, "detail": "full"}
+
+#: Ridge on a sinusoid's amplitude, relative to the total weight, when vibration frequencies are
+#: picked: one the frame differences barely see must not be picked for noise (``docs/tuning.md``).
+SINE_RIDGE = 1e-3
 
 #: The highest vibration frequency the model looks for, in cycles per frame interval: 100 Hz at 24
 #: fps. (``docs/tuning.md#max_cycles``)
@@ -214,13 +219,8 @@ def _held_out(fit: tuple[np.ndarray, ...], test: tuple[np.ndarray, ...], step: f
               smoothness: float, sinusoids: int) -> float:
     """Return the weighted mean distance (px) of ``test``'s row flows from a fit on ``fit``."""
     t_a, t_b, rows, delta, wgt = fit
-    sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness)
-    if sinusoids:
-        left = delta - sol.differences(t_a, t_b, rows)
-        freqs, _ = sinusoid_pursuit(t_a - sol.t0, t_b - sol.t0, left, wgt,
-                                    np.zeros((t_a.size, 0)), sinusoids, ridge=SINE_RIDGE)
-        sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness,
-                                      freqs=freqs)
+    freqs = pick_frequencies(t_a, t_b, delta, wgt, sinusoids) if sinusoids else None
+    sol = solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness, freqs=freqs)
     miss = np.hypot(*(test[3] - sol.differences(test[0], test[1], test[2])).T)
     return float((miss * test[4]).sum() / max(float(test[4].sum()), 1e-12))
 
@@ -368,3 +368,52 @@ def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
     return grid[picked], float((resid ** 2).sum())
 
 
+
+
+def pick_frequencies(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray,
+                     count: int) -> np.ndarray:
+    """Return the frequencies of a vibration seen through row equations ``c(t_a) - c(t_b)``.
+
+    :func:`sinusoid_pursuit` on the equations themselves, with only a cubic drift beside
+    the sinusoids. Near a multiple of the frame rate a vibration shows in the frame
+    pairs as a slow change from pair to pair, which a flexible smooth trajectory takes
+    for its own: picked from what such a trajectory left, 5 of the matrix's 34 jello
+    cases lost a vibration within 0.05 cycles of a multiple to its aliases or to
+    sinusoids beside it (``docs/matrix.md``).
+
+    Parameters
+    ----------
+    t_a, t_b : ndarray of shape (m,)
+        Times of the two ends of each equation (frame intervals).
+    delta : ndarray of shape (m, 2)
+        Observed differences.
+    weight : ndarray of shape (m,)
+        Confidence of each equation.
+    count : int
+        Sinusoids to pick.
+
+    Returns
+    -------
+    ndarray of shape (count,)
+        Cycles per frame interval, in the order picked.
+
+    Examples
+    --------
+    A wobble of 2.97 cycles a frame interval (0.19 of it visible in a frame pair) on a
+    slow pan:
+
+    >>> t_a = (np.arange(1, 33)[:, None] + 0.9 * np.linspace(0, 1, 40)).ravel()
+    >>> t_b = t_a - 1.0
+    >>> c = lambda t: np.stack([2 * t + 0.01 * t ** 2 + 4 * np.sin(2 * np.pi * 2.97 * t),
+    ...                         np.zeros_like(t)], axis=1)
+    >>> round(float(pick_frequencies(t_a, t_b, c(t_a) - c(t_b), np.ones(t_a.size), 1)[0]), 4)
+    2.97
+
+    Closer to the multiple, :data:`SINE_RIDGE` pulls the pick away from it: 2.99 is
+    picked as 2.985 (without the ridge, 7 cases of the matrix's jello over 0.15x, not 5).
+    """
+    mid = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
+                                                                float(t_b.max())))
+    ta, tb = t_a - mid, t_b - mid
+    drift = np.stack([ta - tb, ta ** 2 - tb ** 2, ta ** 3 - tb ** 3], axis=1)
+    return sinusoid_pursuit(ta, tb, delta, weight, drift, count, ridge=SINE_RIDGE)[0]
