@@ -26,7 +26,8 @@ from .camera import solve_camera_trajectory
 __all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE",
            "SIGNAL", "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test",
            "SINE_RIDGE", "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit",
-           "pick_frequencies"]
+           "pick_frequencies", "refine_frequencies", "REFINE_REACH", "REFINE_STEP",
+           "REFINE_ROUNDS"]
 
 #: Settings for vibration near or above the frame rate (drone "jello").
 #: (``docs/tuning.md#vibration``)
@@ -36,6 +37,10 @@ VIBRATION: dict[str, Any] = {"history": 16, "window": 16, "smoothness": 1e-7, "s
 #: Ridge on a sinusoid's amplitude, relative to the total weight, when vibration frequencies are
 #: picked: one the frame differences barely see must not be picked for noise (``docs/tuning.md``).
 SINE_RIDGE = 1e-3
+
+#: A vibration frequency is refined within this many cycles a frame interval of the pursuit's
+#: pick, on a grid this fine, over all ROUNDS times (``docs/tuning.md#refine_reach``).
+REFINE_REACH, REFINE_STEP, REFINE_ROUNDS = 0.005, 0.0005, 2
 
 #: The highest vibration frequency the model looks for, in cycles per frame interval: 100 Hz at 24
 #: fps. (``docs/tuning.md#max_cycles``)
@@ -409,11 +414,78 @@ def pick_frequencies(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight
     >>> round(float(pick_frequencies(t_a, t_b, c(t_a) - c(t_b), np.ones(t_a.size), 1)[0]), 4)
     2.97
 
-    Closer to the multiple, :data:`SINE_RIDGE` pulls the pick away from it: 2.99 is
-    picked as 2.985 (without the ridge, 7 cases of the matrix's jello over 0.15x, not 5).
+    Closer to the multiple, :data:`SINE_RIDGE` pulls the pursuit's pick away from it
+    (2.99 was picked as 2.985); :func:`refine_frequencies` takes it back:
+
+    >>> c = lambda t: np.stack([2 * t + 0.01 * t ** 2 + 4 * np.sin(2 * np.pi * 2.99 * t),
+    ...                         np.zeros_like(t)], axis=1)
+    >>> round(float(pick_frequencies(t_a, t_b, c(t_a) - c(t_b), np.ones(t_a.size), 1)[0]), 4)
+    2.99
     """
     mid = 0.5 * (min(float(t_a.min()), float(t_b.min())) + max(float(t_a.max()),
                                                                 float(t_b.max())))
     ta, tb = t_a - mid, t_b - mid
     drift = np.stack([ta - tb, ta ** 2 - tb ** 2, ta ** 3 - tb ** 3], axis=1)
-    return sinusoid_pursuit(ta, tb, delta, weight, drift, count, ridge=SINE_RIDGE)[0]
+    freqs = sinusoid_pursuit(ta, tb, delta, weight, drift, count, ridge=SINE_RIDGE)[0]
+    return refine_frequencies(ta, tb, delta, weight, drift, freqs)
+
+
+def refine_frequencies(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
+                       weight: np.ndarray, base: np.ndarray, freqs: np.ndarray,
+                       reach: float = REFINE_REACH, step: float = REFINE_STEP,
+                       rounds: int = REFINE_ROUNDS) -> np.ndarray:
+    """Move each frequency to where it explains the most, the others held (no ridge).
+
+    Each in turn, ``rounds`` times: the frequency within ``reach`` of it, on a grid of
+    ``step``, whose cosine and sine explain most of what ``base`` and the other
+    sinusoids leave of ``delta`` (least squares, x and y together). The pursuit's grid
+    and its ridge leave a pick up to :data:`REFINE_REACH` off, and a frequency off by
+    0.00125 is a quarter-radian off 30 frames away.
+
+    Parameters
+    ----------
+    t_a, t_b, delta, weight, base :
+        As for :func:`sinusoid_pursuit`.
+    freqs : ndarray of shape (k,)
+        The frequencies picked.
+    reach, step : float
+        How far each may move, and the grid it moves on.
+    rounds : int
+        Passes over all of them.
+
+    Returns
+    -------
+    ndarray of shape (k,)
+
+    Examples
+    --------
+    >>> t_a = (np.arange(1, 33)[:, None] + np.linspace(0, 1, 40)).ravel(); t_b = t_a - 1
+    >>> c = lambda t: np.stack([np.sin(2 * np.pi * 1.3012 * t), 0 * t], axis=1)
+    >>> f = refine_frequencies(t_a, t_b, c(t_a) - c(t_b), np.ones(t_a.size),
+    ...                        np.zeros((t_a.size, 0)), np.array([1.3]))
+    >>> round(float(f[0]), 5)
+    1.301
+    """
+    sw = np.sqrt(weight)[:, None]
+    rhs = delta * sw
+
+    def columns(f: np.ndarray) -> np.ndarray:  # (m, 2 len(f)): the cosines, then the sines
+        pa, pb = 2 * np.pi * t_a[:, None] * f, 2 * np.pi * t_b[:, None] * f
+        return np.concatenate([np.cos(pa) - np.cos(pb), np.sin(pa) - np.sin(pb)], axis=1) * sw
+
+    out = np.array(freqs, dtype=np.float64)
+    offsets = np.arange(-reach, reach + step / 2, step)
+    n = offsets.size
+    for _ in range(rounds):
+        for j in range(out.size):
+            q = np.linalg.qr(np.concatenate([base * sw, columns(np.delete(out, j))], axis=1))[0]
+            left = rhs - q @ (q.T @ rhs)
+            cand = columns(out[j] + offsets)
+            cand -= q @ (q.T @ cand)  # what the others cannot explain
+            cos, sin = cand[:, :n], cand[:, n:]
+            cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
+            rc, rs = cos.T @ left, sin.T @ left  # (candidates, axes)
+            gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
+                    / (cc * ss - cs ** 2 + 1e-12)[:, None]).sum(axis=1)
+            out[j] += offsets[int(np.argmax(gain))]
+    return out
