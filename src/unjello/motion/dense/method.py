@@ -76,6 +76,7 @@ from .field import (
 from .safety import FOLD_WARNING, DenseFrame, SafeField
 from .vibration import (
     PROBE_CONTRAST,
+    PROBE_TEXTURE,
     PROBE_WAIT,
     VIBRATION,
     pick_frequencies,
@@ -295,7 +296,7 @@ class DenseMethod(SafeField, ModelChoice):
                 # flow, as in a fade from black, would wobble with their noise), of
                 # two-dimensional texture only (:func:`textured`).
                 self._halves.append(probe_pair(prev.start, cur.start, cur.bwd,
-                                               cur.bwd_ok & textured(cur.image)))
+                                               cur.bwd_ok & textured(cur.image, PROBE_TEXTURE)))
             if not self.config.per_pixel:
                 cur.bwd = cur.bwd_ok = None  # nothing per pixel is needed later
             self._measured = cur.index + 1

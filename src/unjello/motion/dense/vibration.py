@@ -20,7 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..flow.dis import ROW_AGREE, row_flows
+from ..flow.dis import ROW_AGREE, row_flows, textured
 from .camera import solve_camera_trajectory
 
 __all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE",
@@ -67,17 +67,6 @@ PROBE_CONTRAST, PROBE_WAIT = 6.0, 2
 #: Only pixels of two-dimensional texture enter the test (:func:`textured`): along an edge the flow
 #: is not measured but filled in (the aperture problem). (``docs/tuning.md#probe_texture``)
 PROBE_TEXTURE = 0.05
-
-
-def textured(image: np.ndarray, share: float = PROBE_TEXTURE) -> np.ndarray:
-    """Pixels of two-dimensional texture: corners and texture, not edges or flat areas.
-
-    Where the smaller eigenvalue of the local structure tensor (5 x 5 px,
-    :func:`cv2.cornerMinEigenVal`) is at least ``share`` of its 90th percentile in the
-    frame. Bool mask of ``image``'s shape.
-    """
-    e = cv2.cornerMinEigenVal(np.ascontiguousarray(image, np.float32), 5)
-    return e >= share * float(np.percentile(e, 90))
 
 
 def vibration_level(left: list[tuple[np.ndarray, np.ndarray]],

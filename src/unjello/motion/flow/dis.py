@@ -25,7 +25,8 @@ from .phase import phase_correlate
 
 __all__ = ["PRESETS", "LARGE_MOTION", "ROW_AGREE", "FlowSettings", "global_shifts",
            "optical_flow", "landing", "consistent", "row_flows", "half_row_flows", "flow_pair",
-           "explains", "misses", "median_along"]
+           "explains", "misses", "median_along", "textured", "STILL_BETTER", "STILL_SHARE",
+           "STILL_REGION", "TEXTURE"]
 
 PRESETS = {"ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,
             "fast": cv2.DISOPTICAL_FLOW_PRESET_FAST,
@@ -47,6 +48,15 @@ LARGE_MOTION = 0.05
 _SHIFT_WIDTH, _SHIFT_RESPONSE = 128, 0.1
 #: Side (px) of the patches whose photometric cost picks between the two runs.
 _PICK_PATCH = 15
+
+#: Zero motion replaces the flow at a pixel of two-dimensional texture (:func:`textured`) whose
+#: patch it matches at most this share of the flow's cost (``docs/tuning.md#still_better``) ...
+STILL_BETTER = 0.5
+#: ... where it does at least this share of the textured pixels within this square (px).
+STILL_SHARE, STILL_REGION = 0.5, 31
+#: Two-dimensional texture: a structure tensor's smaller eigenvalue of at least this share of
+#: its 90th percentile in the frame (:func:`textured`).
+TEXTURE = 0.05
 
 #: A cheaper flow explains a pair (:func:`explains`) unless over this share of its pixels land
 #: on grey levels unlike their own (``docs/tuning.md#photo_miss``).
@@ -88,6 +98,41 @@ def global_shifts(a: np.ndarray, b: np.ndarray, width: int = _SHIFT_WIDTH
     scale = np.array([w / size[0], h / size[1]], np.float32)
     return [(shift * scale, response)
             for shift, response in phase_correlate(sa, sb, LARGE_MOTION * size[0])]
+
+
+def textured(image: np.ndarray, share: float = TEXTURE) -> np.ndarray:
+    """Pixels of two-dimensional texture: corners and texture, not edges or flat areas.
+
+    Where the smaller eigenvalue of the local structure tensor (5 x 5 px,
+    :func:`cv2.cornerMinEigenVal`) is at least ``share`` of its 90th percentile in the
+    frame. Bool mask of ``image``'s shape.
+    """
+    e = cv2.cornerMinEigenVal(np.ascontiguousarray(image, np.float32), 5)
+    return e >= share * float(np.percentile(e, 90))
+
+
+def _still_where_it_matches(a: np.ndarray, b: np.ndarray, flow: np.ndarray) -> np.ndarray:
+    """Zero motion where it matches ``b`` clearly better than ``flow``, over a region.
+
+    At pixels of two-dimensional texture whose patch zero motion matches at most
+    :data:`STILL_BETTER` of the flow's cost, where they are at least :data:`STILL_SHARE`
+    of the textured pixels within :data:`STILL_REGION`: a still background beside a
+    large object that crosses it, whose flow DIS's coarse levels took from the object
+    (a launch tower's lattice matched one period off, consistent both ways). Scattered
+    pixels that zero motion happens to match (a dim texture in a fading pan) stay.
+    """
+    h, w = a.shape
+    gx, gy = pixel_grid(h, w)
+    af, bf = a.astype(np.float32), b.astype(np.float32)
+    tex = textured(af)
+    better = tex & (patch_cost(af, bf, gx, gy, np.zeros_like(flow), _PICK_PATCH)
+                    < STILL_BETTER * patch_cost(af, bf, gx, gy, flow, _PICK_PATCH))
+    if not better.any():
+        return flow
+    box = (STILL_REGION, STILL_REGION)
+    share = cv2.blur(better.astype(np.float32), box) / np.maximum(
+        cv2.blur(tex.astype(np.float32), box), 1e-6)
+    return np.where((better & (share >= STILL_SHARE))[..., None], np.float32(0), flow)
 
 
 def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
@@ -159,6 +204,9 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
                  expect: np.ndarray | None = None, entering: bool = False) -> np.ndarray:
     """Dense flow ``F`` with ``a(s) ~ b(s + F(s))`` (DIS, OpenCV).
 
+    Where zero motion matches a textured region clearly better than DIS from zero, the
+    region keeps still (:func:`_still_where_it_matches`).
+
     Where the frame's global translation (:func:`global_shifts`) is large
     (:data:`LARGE_MOTION`), DIS runs a second time starting from it, and each pixel keeps
     the run whose flow matches ``b`` better over a patch around it: a whip pan over grass
@@ -214,7 +262,7 @@ def optical_flow(a: np.ndarray, b: np.ndarray, preset: str = "medium",
     if finest_scale is None and preset == "medium" and a8.shape[1] <= _FULL_RES_WIDTH:
         finest_scale = 0  # the preset's level 1 would be coarser than on larger frames
     dis = _engine(preset, finest_scale, refinement)
-    flow = dis.calc(a8, b8, None)  # type: ignore[call-overload]  # None: no start
+    flow = _still_where_it_matches(a8, b8, dis.calc(a8, b8, None))  # type: ignore[call-overload]
     def started(shift: np.ndarray, whole: Literal["mean", "median"] | None) -> np.ndarray:
         """DIS again from the translation ``shift``, kept where it matches better."""
         start = np.empty_like(flow)
