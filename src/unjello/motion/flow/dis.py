@@ -124,14 +124,16 @@ def _still_where_it_matches(a: np.ndarray, b: np.ndarray, flow: np.ndarray) -> n
     h, w = a.shape
     gx, gy = pixel_grid(h, w)
     af, bf = a.astype(np.float32), b.astype(np.float32)
-    tex = textured(af)
-    better = tex & (patch_cost(af, bf, gx, gy, np.zeros_like(flow), _PICK_PATCH)
-                    < STILL_BETTER * patch_cost(af, bf, gx, gy, flow, _PICK_PATCH))
-    if not better.any():
+    box = (_PICK_PATCH, _PICK_PATCH)
+    better = (cv2.boxFilter(cv2.absdiff(af, bf), -1, box)  # zero motion's patch cost
+              < STILL_BETTER * patch_cost(af, bf, gx, gy, flow, _PICK_PATCH))
+    if not better.any():  # a pan: nowhere (the texture measure costs as much again)
         return flow
-    box = (STILL_REGION, STILL_REGION)
-    share = cv2.blur(better.astype(np.float32), box) / np.maximum(
-        cv2.blur(tex.astype(np.float32), box), 1e-6)
+    tex = textured(af)
+    better &= tex
+    region = (STILL_REGION, STILL_REGION)
+    share = cv2.blur(better.astype(np.float32), region) / np.maximum(
+        cv2.blur(tex.astype(np.float32), region), 1e-6)
     return np.where((better & (share >= STILL_SHARE))[..., None], np.float32(0), flow)
 
 
