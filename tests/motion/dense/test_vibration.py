@@ -59,20 +59,6 @@ def test_a_fade_from_black_is_not_vibration():
         assert len(out) == 24 and method.vibrating is False, (fade, method.choice)
 
 
-def test_only_two_dimensional_texture_is_probed():
-    """Along an edge the flow is filled in, not measured: edges and flat areas are left out."""
-    from unjello.motion.dense.vibration import textured
-
-    img = np.zeros((60, 80), np.float32)
-    img[:, 40:] = 200.0  # one upright edge
-    rng = np.random.default_rng(0)
-    img[10:30, 5:25] = rng.uniform(0, 255, (20, 20))  # a patch of texture
-    mask = textured(img)
-    assert mask[12:28, 7:23].mean() > 0.9
-    assert not mask[35:, 30:50].any()  # the edge, away from the patch
-    assert not mask[40:, 50:].any()  # flat
-
-
 @pytest.mark.slow
 def test_a_pan_over_flat_sky_behind_poles_is_not_vibration():
     """Issue 38: the rocket on its pad (flat dark sky) panned at a tenth of the width a

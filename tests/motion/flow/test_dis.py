@@ -296,3 +296,15 @@ def test_a_still_textured_background_beside_a_crossing_object_keeps_still():
         still = clip.background[k + 1] & textured(grey[k + 1])
         assert still.sum() > 10000
         assert np.mean(np.hypot(*flow[still].T) > 2.0) < 0.02, k
+
+
+def test_textured_is_two_dimensional_texture_only():
+    """Along an edge the flow is filled in, not measured: edges and flat areas are left out."""
+    img = np.zeros((60, 80), np.float32)
+    img[:, 40:] = 200.0  # one upright edge
+    rng = np.random.default_rng(0)
+    img[10:30, 5:25] = rng.uniform(0, 255, (20, 20))  # a patch of texture
+    mask = textured(img)
+    assert mask[12:28, 7:23].mean() > 0.9
+    assert not mask[35:, 30:50].any()  # the edge, away from the patch
+    assert not mask[40:, 50:].any()  # flat

@@ -59,6 +59,7 @@ from ..flow.dis import (
     median_along,
     optical_flow,
     row_flows,
+    textured,
 )
 from ..objects.rigid import PathTrack
 from .camera import CameraSolution, solve_camera_trajectory, solve_reweighted
@@ -81,7 +82,6 @@ from .vibration import (
     VIBRATION,
     pick_frequencies,
     probe_pair,
-    textured,
 )
 
 __all__ = ["DenseConfig", "DenseMethod", "FOLD_WARNING"]

@@ -20,11 +20,11 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..flow.dis import ROW_AGREE, row_flows, textured
+from ..flow.dis import ROW_AGREE, row_flows
 from .camera import solve_camera_trajectory
 
 __all__ = ["VIBRATION", "MAX_CYCLES", "PROBE_CONTRAST", "PROBE_WAIT", "PROBE_TEXTURE", "SHARE",
-           "SIGNAL", "PREFER", "VISIBLE", "textured", "vibration_level", "wobble_test",
+           "SIGNAL", "PREFER", "VISIBLE", "vibration_level", "wobble_test",
            "SINE_RIDGE", "detect_vibration", "choose_model", "probe_pair", "sinusoid_pursuit",
            "pick_frequencies", "refine_frequencies", "REFINE_REACH", "REFINE_STEP",
            "REFINE_ROUNDS"]
@@ -64,8 +64,8 @@ _WOBBLE_MAX = 0.03
 #: noise read as vibration), waiting PROBE_WAIT x probe pairs (``docs/tuning.md#probe_contrast``).
 PROBE_CONTRAST, PROBE_WAIT = 6.0, 2
 
-#: Only pixels of two-dimensional texture enter the test (:func:`textured`): along an edge the flow
-#: is not measured but filled in (the aperture problem). (``docs/tuning.md#probe_texture``)
+#: Only pixels of two-dimensional texture enter the test (``flow.dis.textured``): along an edge the
+#: flow is not measured but filled in (the aperture problem). (``docs/tuning.md#probe_texture``)
 PROBE_TEXTURE = 0.05
 
 
