@@ -54,6 +54,9 @@ _PICK_PATCH = 15
 STILL_BETTER = 0.5
 #: ... where it does at least this share of the textured pixels within this square (px).
 STILL_SHARE, STILL_REGION = 0.5, 31
+#: ... and pixels without texture among them, where zero motion matches their patch within
+#: this mean difference (0-255) or the pair's median patch cost under its flow.
+STILL_MATCH = 1.0
 #: Two-dimensional texture: a structure tensor's smaller eigenvalue of at least this share of
 #: its 90th percentile in the frame (:func:`textured`).
 TEXTURE = 0.05
@@ -118,23 +121,34 @@ def _still_where_it_matches(a: np.ndarray, b: np.ndarray, flow: np.ndarray) -> n
     :data:`STILL_BETTER` of the flow's cost, where they are at least :data:`STILL_SHARE`
     of the textured pixels within :data:`STILL_REGION`: a still background beside a
     large object that crosses it, whose flow DIS's coarse levels took from the object
-    (a launch tower's lattice matched one period off, consistent both ways). Scattered
-    pixels that zero motion happens to match (a dim texture in a fading pan) stay.
+    (a launch tower's lattice matched one period off, consistent both ways). Where those
+    kept still are most of the textured pixels around, pixels without texture keep still
+    too where zero motion matches them no worse than their flow and than the pair's
+    median patch cost (or :data:`STILL_MATCH`): the flat sky between the tower's bars,
+    not content entering a pan's frame, which no motion matches. Scattered pixels that
+    zero motion happens to match (a dim texture in a fading pan) stay.
     """
     h, w = a.shape
     gx, gy = pixel_grid(h, w)
     af, bf = a.astype(np.float32), b.astype(np.float32)
     box = (_PICK_PATCH, _PICK_PATCH)
-    better = (cv2.boxFilter(cv2.absdiff(af, bf), -1, box)  # zero motion's patch cost
-              < STILL_BETTER * patch_cost(af, bf, gx, gy, flow, _PICK_PATCH))
+    zero = cv2.boxFilter(cv2.absdiff(af, bf), -1, box)  # zero motion's patch cost
+    cost = patch_cost(af, bf, gx, gy, flow, _PICK_PATCH)
+    better = zero < STILL_BETTER * cost
     if not better.any():  # a pan: nowhere (the texture measure costs as much again)
         return flow
     tex = textured(af)
     better &= tex
     region = (STILL_REGION, STILL_REGION)
-    share = cv2.blur(better.astype(np.float32), region) / np.maximum(
-        cv2.blur(tex.astype(np.float32), region), 1e-6)
-    return np.where((better & (share >= STILL_SHARE))[..., None], np.float32(0), flow)
+    textures = np.maximum(cv2.blur(tex.astype(np.float32), region), 1e-6)
+    still = better & (cv2.blur(better.astype(np.float32), region) / textures >= STILL_SHARE)
+    # Flat pixels among them, where zero motion matches as well as the flow and as the
+    # pair's flow typically does (a flow that missed matches no motion: entering content).
+    if still.any():
+        around = cv2.blur(still.astype(np.float32), region) / textures >= STILL_SHARE
+        match = max(float(np.median(cost)), STILL_MATCH)
+        still |= around & ~tex & (zero <= np.minimum(cost, match))
+    return np.where(still[..., None], np.float32(0), flow)
 
 
 def _pick_by_cost(a: np.ndarray, b: np.ndarray, flow: np.ndarray, other: np.ndarray,
