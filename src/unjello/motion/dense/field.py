@@ -19,8 +19,8 @@ from ..flow.dis import median_along
 from ..flow.patches import costlier
 
 __all__ = ["fill_unreliable", "smooth_field", "projective_flow", "fit_projective",
-           "advected_velocity", "snap_to_global", "put", "both_axes", "at_reference",
-           "scale_axes", "rows_minus"]
+           "advected_velocity", "snap_to_global", "snap_to_camera", "put", "both_axes",
+           "at_reference", "scale_axes", "rows_minus"]
 
 
 def put(dst: np.ndarray, src: np.ndarray, where: np.ndarray) -> None:
@@ -326,6 +326,58 @@ def snap_to_global(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, ok: np.
     worse = costlier(cur, other, at_glob, at_flow, window)
     cv2.copyTo(np.ascontiguousarray(flow, np.float32), worse, glob)
     return glob
+
+
+#: Under the vibration model a pixel keeps its motion beyond the camera trajectory's where its
+#: flow matches its patch better by over this (grey levels; ``docs/tuning.md#camera_margin``).
+CAMERA_MARGIN = 1.0
+
+
+def snap_to_camera(cur: np.ndarray, other: np.ndarray, flow: np.ndarray, resid: np.ndarray,
+                   window: int = SNAP_WINDOW, margin: float = CAMERA_MARGIN) -> np.ndarray:
+    """Drop a pixel's motion beyond the camera's where the camera's matches it as well.
+
+    A vibration bends the rows, which no projective flow follows
+    (:func:`snap_to_global` keeps the flow there); the camera trajectory with its
+    sinusoids does. Where the trajectory's own flow (``flow - resid``) matches the other
+    frame within ``margin`` of the pixel's flow over a ``window`` x ``window`` patch, the
+    pixel's residual is the flow's noise: it becomes 0. Objects and near layers that
+    move otherwise keep theirs (measurements: ``docs/tuning.md#camera_margin``).
+
+    Parameters
+    ----------
+    cur, other : ndarray of shape (h, w), float32
+        The frame and the neighbour the flow points to.
+    flow : ndarray of shape (h, w, 2), float32
+        Flow from ``cur`` to ``other``.
+    resid : ndarray of shape (h, w, 2), float32
+        Its part beyond the camera trajectory's.
+    window : int
+        Side of the patch compared (px).
+    margin : float
+        Mean difference (0-255) by which the flow must match better.
+
+    Returns
+    -------
+    ndarray of shape (h, w, 2), float32
+
+    Examples
+    --------
+    A still frame and a flow of noise: the camera's (none) matches as well.
+
+    >>> img = np.random.default_rng(0).uniform(0, 255, (20, 20)).astype(np.float32)
+    >>> noise = np.full((20, 20, 2), 0.05, np.float32)
+    >>> float(np.abs(snap_to_camera(img, img, noise, noise)).max())
+    0.0
+    """
+    h, w = flow.shape[:2]
+    gx, gy = pixel_grid(h, w)
+    cam = flow - resid
+    keep = costlier(cur, other, (gx + cam[..., 0], gy + cam[..., 1]),
+                    (gx + flow[..., 0], gy + flow[..., 1]), window, margin)
+    out = np.zeros_like(resid)
+    cv2.copyTo(np.ascontiguousarray(resid, np.float32), keep, out)
+    return out
 
 
 def at_reference(sides: list[tuple[np.ndarray, np.ndarray, np.ndarray]],

@@ -72,6 +72,7 @@ from .field import (
     rows_minus,
     scale_axes,
     smooth_field,
+    snap_to_camera,
     snap_to_global,
 )
 from .safety import FOLD_WARNING, DenseFrame, SafeField
@@ -578,6 +579,8 @@ class DenseMethod(SafeField, ModelChoice):
             # The camera's part of the flow (eq. 26) off it, and the time to where it lands.
             e, resid = residual_side(np.ascontiguousarray(flow, np.float32), c_grid, grid_t0,
                                      step, other.start - fr.start, rho / h, t_own, c_own)
+            if self.vibrating:  # rows bent by a vibration: the trajectory follows them
+                resid = snap_to_camera(fr.image, other.image, flow, resid)
             sides.append((e, resid, ok, flow))
         # Per row: the time from each pixel's to the reference.
         ahead_t = np.float32(t_ref) - t_s

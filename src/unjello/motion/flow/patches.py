@@ -46,18 +46,19 @@ def map_cost(cur: np.ndarray, other: np.ndarray, map_x: np.ndarray, map_y: np.nd
 
 
 def costlier(cur: np.ndarray, other: np.ndarray, maps: tuple[np.ndarray, np.ndarray],
-              than: tuple[np.ndarray, np.ndarray], window: int) -> np.ndarray:
-    """Where ``maps`` cost more than ``than`` (:func:`map_cost`): a mask, 255 where they do.
+              than: tuple[np.ndarray, np.ndarray], window: int, margin: float = 0.0
+              ) -> np.ndarray:
+    """Where ``maps`` cost more than ``than`` (:func:`map_cost`), by over ``margin``: a mask.
 
-    The patch means are linear, so the two costs are compared as one patch mean of
-    their difference: one box filter instead of two.
+    255 where they do. The patch means are linear, so the two costs are compared as one
+    patch mean of their difference: one box filter instead of two.
     """
     def miss(at: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         return cv2.absdiff(cv2.remap(other, *at, cv2.INTER_LINEAR,
                                      borderMode=cv2.BORDER_REPLICATE), cur)
 
     gap = cv2.boxFilter(cv2.subtract(miss(maps), miss(than)), -1, (window, window))
-    return (gap > 0).view(np.uint8) * np.uint8(255)
+    return (gap > margin).view(np.uint8) * np.uint8(255)
 
 
 def unmatched_entering(cur: np.ndarray, other: np.ndarray, flow: np.ndarray,
