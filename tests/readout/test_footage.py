@@ -93,3 +93,19 @@ def test_uniform_motion_falls_back(scene):
                                           SensorTiming(0.5), 8, size=(320, 240))]
     est = estimate_readout(frames, fallback=1.0)
     assert not est.reliable and est.readout == 1.0
+
+
+def test_a_best_guess_outside_the_frame_interval_is_not_pooled():
+    """Neither cue can tell: the motion's 0.66 +-0.06 and the lines' -0.52 +-0.14 (TUM RS-VI
+    sequence 9, a deep room). A readout under 0 is impossible, not uncertain: the best
+    guess is the motion's alone (it was pulled to 0.47)."""
+    from unjello.readout.footage import ReadoutEstimate, _combine
+    from unjello.readout.lines import LineCue
+
+    empty = np.zeros(0)
+    motion = ReadoutEstimate(1.0, 0.4, False, empty, empty, "rotation", "none", 0.0607, 0.6646)
+    est = _combine(motion, LineCue(-0.52, 0.137, "tracked"), 1.0)
+    assert not est.reliable and est.readout == 1.0
+    assert est.best_guess == pytest.approx(0.6646) and est.uncertainty == pytest.approx(0.0607)
+    both = _combine(motion, LineCue(0.55, 0.137, "tracked"), 1.0)  # inside: pooled
+    assert 0.55 < both.best_guess < 0.6646

@@ -140,7 +140,7 @@ def test_tum_halves_each_give_the_published_readout_and_pool(shared_data, tmp_pa
 @pytest.mark.slow
 def test_phone_in_a_car_is_not_confidently_wrong(shared_data):
     """The phone in a moving car: its travel and the traffic are not a turn, the rotation
-    model leaves 14 % of the motion unexplained and its windows scatter: unknown, with a
+    model leaves 31 % of the motion unexplained and its windows scatter: unknown, with a
     best guess inside (0, 1] and an uncertainty that says how little it knows."""
     from unjello.io.frames import list_frames, read_image
 
@@ -167,21 +167,15 @@ def test_pooling_trusts_a_turning_cameras_estimates_to_their_own_bound(model, re
     assert pooled.uncertainty == pytest.approx(0.031, abs=0.001)
 
 
-def test_a_lens_the_windows_disagree_on_widens_the_readouts_uncertainty(monkeypatch):
-    """Windows whose own focal lengths scatter by 0.0327 (in log focal length), under a
-    readout that moves 0.5 a unit of it: the lens's share of the uncertainty is 0.5 x
-    0.0327 (the windows' spread, not its standard error)."""
-    own = np.array([-0.04, 0.0, 0.04] * 4)
+def test_a_fitted_lens_widens_the_readouts_uncertainty(monkeypatch):
+    """A readout that moves 0.5 a unit of log focal length: the lens's share of its
+    uncertainty is half its change over f / 1.1 .. f x 1.1 (a fitted focal length is known
+    no better: on TUM RS-VI sequence 9 it came 8 % long, and the readout 0.06 high)."""
     candidates = np.round(np.arange(0.3, 1.0001, 0.05), 4)
 
-    def costs(log_focal, readouts):
-        rho = 0.6 + 0.5 * log_focal
-        return (50.0 * (log_focal - own)[:, None] ** 2
-                + (readouts[None, :] - rho) ** 2)
-
     def fake(pairs, times, lens, size, readouts, every=1):
-        return costs(np.log(lens.focal / 500.0), readouts), None
+        rho = 0.6 + 0.5 * np.log(lens.focal / 500.0)
+        return np.tile((readouts - rho) ** 2, (4, 1)), None
     monkeypatch.setattr(rotation, "rotation_costs", fake)
-    sigma = rotation._lens_sigma([], np.zeros(0), (100, 100), Lens(500.0), candidates,
-                                 costs(0.0, candidates))
-    assert sigma == pytest.approx(0.5 * float(np.std(own)), rel=0.02)
+    sigma = rotation._lens_sigma([], np.zeros(0), (100, 100), Lens(500.0), candidates, 0.6)
+    assert sigma == pytest.approx(0.5 * np.log(rotation.LENS_STEP), rel=0.02)

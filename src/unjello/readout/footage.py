@@ -94,6 +94,9 @@ _VIBRATION_CONFIDENCE = 0.7
 
 #: The shortest readout an estimate reports (a fraction of the frame interval).
 _SHORTEST = 0.05
+#: A cue's best guess further outside (0, 1] than this many of its uncertainties is wrong, not
+#: uncertain, and is not pooled (the lines' -0.52 +-0.14 on a deep room, TUM RS-VI seq. 9).
+_OUTSIDE = 2.0
 
 #: The rotation model's estimate is reliable where its uncertainty (at least
 #: :data:`MOTION_SIGMA`) is within this (``docs/readout.md``, "A camera that turns") ...
@@ -222,7 +225,8 @@ def _combine(motion: ReadoutEstimate, lines: LineCue, fallback: float) -> Readou
     # Neither can tell: the two best guesses by their uncertainties, for pooling.
     guesses = [(g, u) for g, u in ((motion.best_guess, motion.uncertainty),
                                    (lines.readout, lines.uncertainty))
-               if np.isfinite(g) and np.isfinite(u) and u > 0]
+               if np.isfinite(g) and np.isfinite(u) and u > 0
+               and _SHORTEST - _OUTSIDE * u <= g <= 1.0 + _OUTSIDE * u]
     guess, sigma = float("nan"), float("inf")
     if guesses:
         wts = np.array([1.0 / u ** 2 for _, u in guesses])
@@ -425,6 +429,10 @@ def _turning(cells: list, times: np.ndarray, size: tuple[int, int], lens: Lens |
         f"a turning camera explains {100 * fit.explained:.0f}% of its motion (travel, "
         f"traffic, parallax), too little to trust its readout ({guess:.2f} +-{sigma:.2f})"
         if not explains else
+        f"the turning camera's readout rides on a focal length its motion does not pin "
+        f"down ({guess:.2f} +-{sigma:.2f}, +-{fit.lens_share:.2f} from the lens fitted: "
+        "give --focal)"
+        if 2 * fit.lens_share ** 2 > fit.uncertainty ** 2 else  # the lens's share is the larger
         f"the turning camera's readout varies too much over the clip ({guess:.2f} "
         f"+-{sigma:.2f})")
     confidence = float(1.0 / (1.0 + (sigma / ROTATION_SIGMA) ** 2)) if explains else 0.0
