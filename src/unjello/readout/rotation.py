@@ -261,7 +261,8 @@ class RotationFit:
         The cost's minimum (interpolated between candidates).
     uncertainty : float
         One standard deviation, from the spread of the minimum when each window is left
-        out in turn (jackknife); ``inf`` where the minimum is at the candidates' edge.
+        out in turn (jackknife) and, for a fitted lens, its focal length's
+        (:attr:`lens_share`); ``inf`` where the minimum is at the candidates' edge.
     lens : Lens
         The lens fitted (or given).
     candidates, costs : ndarray
@@ -323,7 +324,8 @@ def fit_rotation(pairs: list[CellFlows], times: np.ndarray, size: tuple[int, int
     are scored at three readouts on :data:`LENS_WINDOWS` windows; the best one's focal
     length and coefficient are refined between their neighbours; the readout is then the
     minimum of the total cost over ``candidates`` (default 0.1 to 1.2 by 0.05: a minimum
-    at 1.0 lies inside them), and its uncertainty the jackknife's over the windows.
+    at 1.0 lies inside them), and its uncertainty the jackknife's over the windows with,
+    for a fitted lens, its focal length's share (:func:`_lens_sigma`).
     """
     h, w = size
     if candidates is None:
