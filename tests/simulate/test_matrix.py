@@ -64,12 +64,14 @@ def test_the_slice_holds(kind):
 def test_a_drone_that_takes_off_switches_to_the_vibration_model():
     # Still for 30 frames, then vibrating: the first choice is the smooth model, a later
     # one on the pairs since switches to the vibration model, and the clip gains by it.
+    # Without the pairs before the switch, and with its last frames on frequencies picked
+    # on a window 5 pairs earlier, it came out 0.151x.
     case = next(c for c in cases() if c.name == "jello/takes-off")
     row = score(case, _correct)
     models = [(m["model"], m["choice"]["pairs"]) for s in row["stretches"]
               for m in s["models"]]
     assert [m for m, _ in models] == ["smooth", "vibration"], row["stretches"]
-    assert row["ratio"] < 0.2, row
+    assert row["ratio"] < 0.13, row
 
 
 def test_a_vibration_near_a_multiple_of_the_frame_rate_is_found():

@@ -81,7 +81,6 @@ from .vibration import (
     PROBE_TEXTURE,
     PROBE_WAIT,
     VIBRATION,
-    pick_frequencies,
     probe_pair,
 )
 
@@ -177,7 +176,8 @@ class DenseMethod(SafeField, ModelChoice):
         self.wobble: float | None = None
         #: The evidence that chose the camera model (:func:`choose_model`).
         self.choice: dict[str, float] = {}
-        self._freqs: tuple[int, np.ndarray] | None = None  # (last pair, sinusoids' freqs)
+        self._freqs: tuple[tuple[int, int], np.ndarray] | None = None  # (window, freqs)
+        self._final = False  # the clip has ended: its last frames' windows stand still
         self._count = 0  # frames pushed
         self._measured = 0  # frames whose flow to the previous frame is taken
         self._pending: deque[tuple[DenseFrame, DenseFrame, Future | tuple]] = deque()
@@ -371,6 +371,7 @@ class DenseMethod(SafeField, ModelChoice):
 
     def _ready(self, final: bool) -> list[FrameMotion]:
         out: list[FrameMotion] = []
+        self._final = final
         if not self._decided:
             probed = len(self._halves) >= self.config.probe
             if not final and not probed and self._measured - 1 < PROBE_WAIT * self.config.probe:
@@ -386,7 +387,7 @@ class DenseMethod(SafeField, ModelChoice):
             self._next_out += 1
             while self._frames and self._frames[0].index < n:  # n - 1 stays for n + 1
                 self._frames.popleft()
-            span = self.config.history + self.config.window
+            span = self._kept_pairs()
             while (len(self._equations) > span
                    and self._equations[0][0] < self._pairs(n + 1, False)[0]):
                 self._equations.popleft()
@@ -409,15 +410,8 @@ class DenseMethod(SafeField, ModelChoice):
             # outvoted by the pairs around them (a lone pair has no others to do it).
             solve = solve_reweighted if len(eqs) > 1 else solve_camera_trajectory
             return solve(t_a, t_b, rows, delta, wgt, step, smoothness)
-        # A vibration's frequencies hold for a while: picked again every 8 frames, from
-        # every 4th row equation (the choice costs far more than the solve).
-        if self._freqs is None or pairs[1] - self._freqs[0] >= 8:
-            sub = slice(None, None, 4)
-            picked = pick_frequencies(t_a[sub], t_b[sub], delta[sub], wgt[sub],
-                                      self.config.sinusoids)
-            self._freqs = (pairs[1], picked)
         return solve_camera_trajectory(t_a, t_b, rows, delta, wgt, step, smoothness,
-                                       freqs=self._freqs[1])
+                                       freqs=self._frequencies(pairs, t_a, t_b, delta, wgt))
 
     def _emit(self, fr: DenseFrame, pairs: tuple[int, int]) -> FrameMotion:
         """Frame ``fr``'s motion, stage by stage (the package's docstring lists them)."""
