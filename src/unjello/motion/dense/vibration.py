@@ -292,6 +292,24 @@ def choose_model(pairs: Sequence[ProbePair], height: int, readout: float, step: 
     return errors[1] <= PREFER * errors[0] and errors[0] >= VISIBLE and gain, evidence
 
 
+def _norms(cos: np.ndarray, sin: np.ndarray, ridge: float
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the columns' products ``cos.cos + ridge``, ``sin.sin + ridge``, ``cos.sin``."""
+    return (cos * cos).sum(0) + ridge, (sin * sin).sum(0) + ridge, (cos * sin).sum(0)
+
+
+def _projected(cos: np.ndarray, sin: np.ndarray, resid: np.ndarray,
+               norms: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """Return the energy of ``resid`` (m, 2) on span{cos_f, sin_f}, each f, x and y together.
+
+    ``norms`` are :func:`_norms` of the columns (a ridge there shrinks the amplitudes).
+    """
+    cc, ss, cs = norms
+    rc, rs = cos.T @ resid, sin.T @ resid  # (columns, axes)
+    return ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
+            / (cc * ss - cs ** 2 + 1e-12)[:, None]).sum(axis=1)
+
+
 def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
                      weight: np.ndarray, base: np.ndarray, count: int,
                      max_cycles: float = MAX_CYCLES, ridge: float = 0.0
@@ -345,23 +363,15 @@ def sinusoid_pursuit(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
     pa, pb = (2 * np.pi) * t_a[:, None] * grid, (2 * np.pi) * t_b[:, None] * grid
     cos = (np.cos(pa) - np.cos(pb)) * sw
     sin = (np.sin(pa) - np.sin(pb)) * sw
-    lam = ridge * float(weight.sum())
-    cc, ss, cs = (cos * cos).sum(0) + lam, (sin * sin).sum(0) + lam, (cos * sin).sum(0)
-    det = cc * ss - cs ** 2 + 1e-12
+    norms = _norms(cos, sin, ridge * float(weight.sum()))
     picked: list[int] = []
     for _ in range(count):
-        rc, rs = cos.T @ resid, sin.T @ resid  # (frequencies, 2)
-        # Energy of the residual's projection on span{cos_f, sin_f}, x and y together.
-        gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
-                / det[:, None]).sum(axis=1)
-        f = int(np.argmax(gain))
+        f = int(np.argmax(_projected(cos, sin, resid, norms)))
         picked.append(f)
         cols.append(np.stack([cos[:, f], sin[:, f]], axis=1))
         a = np.concatenate(cols, axis=1)
         resid = rhs - a @ np.linalg.lstsq(a, rhs, rcond=None)[0]
     return grid[picked], float((resid ** 2).sum())
-
-
 
 
 def pick_frequencies(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray, weight: np.ndarray,
@@ -472,9 +482,6 @@ def refine_frequencies(t_a: np.ndarray, t_b: np.ndarray, delta: np.ndarray,
             cand = columns(out[j] + offsets)
             cand -= q @ (q.T @ cand)  # what the others cannot explain
             cos, sin = cand[:, :n], cand[:, n:]
-            cc, ss, cs = (cos * cos).sum(0), (sin * sin).sum(0), (cos * sin).sum(0)
-            rc, rs = cos.T @ left, sin.T @ left  # (candidates, axes)
-            gain = ((ss[:, None] * rc ** 2 - 2 * cs[:, None] * rc * rs + cc[:, None] * rs ** 2)
-                    / (cc * ss - cs ** 2 + 1e-12)[:, None]).sum(axis=1)
+            gain = _projected(cos, sin, left, _norms(cos, sin, 0.0))
             out[j] += offsets[int(np.argmax(gain))]
     return out

@@ -141,13 +141,16 @@ def _still_where_it_matches(a: np.ndarray, b: np.ndarray, flow: np.ndarray) -> n
     better &= tex
     region = (STILL_REGION, STILL_REGION)
     textures = np.maximum(cv2.blur(tex.astype(np.float32), region), 1e-6)
-    still = better & (cv2.blur(better.astype(np.float32), region) / textures >= STILL_SHARE)
+
+    def most(mask: np.ndarray) -> np.ndarray:  # where ``mask`` holds most textured pixels
+        return cv2.blur(mask.astype(np.float32), region) / textures >= STILL_SHARE
+
+    still = better & most(better)
     # Flat pixels among them, where zero motion matches as well as the flow and as the
     # pair's flow typically does (a flow that missed matches no motion: entering content).
     if still.any():
-        around = cv2.blur(still.astype(np.float32), region) / textures >= STILL_SHARE
         match = max(float(np.median(cost)), STILL_MATCH)
-        still |= around & ~tex & (zero <= np.minimum(cost, match))
+        still |= most(still) & ~tex & (zero <= np.minimum(cost, match))
     return np.where(still[..., None], np.float32(0), flow)
 
 
